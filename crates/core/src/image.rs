@@ -1,0 +1,229 @@
+//! Linear floating-point RGB images and their files: OpenEXR and Radiance HDR keep the linear
+//! values; PNG is written through a documented tone map.
+//!
+//! Tone map for PNG (see [`ToneMap`]): `srgb_encode(clamp(c · 2^exposure, 0, 1))`, the sRGB
+//! transfer curve of IEC 61966-2-1 applied per channel with no other curve, so an image with
+//! values in [0,1] and exposure 0 is written exactly as sRGB would show it.
+
+use glam::Vec3;
+use std::path::{Path, PathBuf};
+
+#[derive(Debug, thiserror::Error)]
+pub enum ImageError {
+    #[error("{path}: {message}")]
+    Io { path: PathBuf, message: String },
+    #[error("{path}: unsupported image extension (use .exr, .hdr or .png)")]
+    UnsupportedExtension { path: PathBuf },
+    #[error("{path}: the image has zero size")]
+    Empty { path: PathBuf },
+}
+
+/// A linear RGB image, row-major from the top-left pixel.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Image {
+    pub width: u32,
+    pub height: u32,
+    pub pixels: Vec<Vec3>,
+}
+
+/// How linear radiance becomes 8-bit sRGB.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ToneMap {
+    /// Stops: every value is multiplied by 2^exposure before encoding.
+    pub exposure: f32,
+}
+
+impl Default for ToneMap {
+    fn default() -> Self {
+        Self { exposure: 0.0 }
+    }
+}
+
+impl Image {
+    pub fn new(width: u32, height: u32) -> Self {
+        Self::filled(width, height, Vec3::ZERO)
+    }
+
+    pub fn filled(width: u32, height: u32, value: Vec3) -> Self {
+        Self { width, height, pixels: vec![value; width as usize * height as usize] }
+    }
+
+    pub fn from_fn(width: u32, height: u32, f: impl Fn(u32, u32) -> Vec3) -> Self {
+        let pixels = (0..height).flat_map(|y| (0..width).map(move |x| (x, y))).map(|(x, y)| f(x, y)).collect();
+        Self { width, height, pixels }
+    }
+
+    pub fn len(&self) -> usize {
+        self.pixels.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.pixels.is_empty()
+    }
+
+    pub fn get(&self, x: u32, y: u32) -> Vec3 {
+        self.pixels[(y * self.width + x) as usize]
+    }
+
+    pub fn set(&mut self, x: u32, y: u32, v: Vec3) {
+        self.pixels[(y * self.width + x) as usize] = v;
+    }
+
+    /// Mean of all pixels.
+    pub fn mean(&self) -> Vec3 {
+        let sum: glam::DVec3 = self.pixels.iter().map(|p| p.as_dvec3()).sum();
+        (sum / self.pixels.len().max(1) as f64).as_vec3()
+    }
+
+    /// Bilinear lookup with `u, v` in [0,1]², wrapping in u and clamping in v (the convention
+    /// of equirectangular maps; textures use [`Image::sample_repeat`]).
+    pub fn sample_bilinear(&self, u: f32, v: f32, wrap_v: bool) -> Vec3 {
+        let (w, h) = (self.width as i64, self.height as i64);
+        let x = u * w as f32 - 0.5;
+        let y = v * h as f32 - 0.5;
+        let (x0, y0) = (x.floor(), y.floor());
+        let (fx, fy) = (x - x0, y - y0);
+        let fetch = |xi: i64, yi: i64| {
+            let xi = xi.rem_euclid(w);
+            let yi = if wrap_v { yi.rem_euclid(h) } else { yi.clamp(0, h - 1) };
+            self.pixels[(yi * w + xi) as usize]
+        };
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let top = fetch(x0, y0).lerp(fetch(x0 + 1, y0), fx);
+        let bottom = fetch(x0, y0 + 1).lerp(fetch(x0 + 1, y0 + 1), fx);
+        top.lerp(bottom, fy)
+    }
+
+    /// Bilinear texture lookup, repeating in both directions.
+    pub fn sample_repeat(&self, u: f32, v: f32) -> Vec3 {
+        self.sample_bilinear(u, v, true)
+    }
+
+    /// Reads an `.exr`, `.hdr` or `.png` (sRGB-decoded to linear) file.
+    pub fn read(path: &Path) -> Result<Image, ImageError> {
+        let io = |message: String| ImageError::Io { path: path.to_owned(), message };
+        let ext = extension(path);
+        if !matches!(ext.as_str(), "exr" | "hdr" | "png" | "jpg" | "jpeg") {
+            return Err(ImageError::UnsupportedExtension { path: path.to_owned() });
+        }
+        let dynamic = ::image::ImageReader::open(path)
+            .map_err(|e| io(e.to_string()))?
+            .with_guessed_format()
+            .map_err(|e| io(e.to_string()))?
+            .decode()
+            .map_err(|e| io(e.to_string()))?;
+        let srgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg");
+        let rgb = dynamic.into_rgb32f();
+        let (width, height) = rgb.dimensions();
+        if width == 0 || height == 0 {
+            return Err(ImageError::Empty { path: path.to_owned() });
+        }
+        let pixels = rgb
+            .pixels()
+            .map(|p| {
+                let c = Vec3::new(p.0[0], p.0[1], p.0[2]);
+                if srgb { Vec3::new(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z)) } else { c }
+            })
+            .collect();
+        Ok(Image { width, height, pixels })
+    }
+
+    /// Writes by extension: `.exr` (linear f32), `.hdr` (linear RGBE) or `.png` (tone-mapped).
+    pub fn write(&self, path: &Path, tone: ToneMap) -> Result<(), ImageError> {
+        if self.width == 0 || self.height == 0 {
+            return Err(ImageError::Empty { path: path.to_owned() });
+        }
+        let io = |message: String| ImageError::Io { path: path.to_owned(), message };
+        match extension(path).as_str() {
+            "exr" | "hdr" => {
+                let data: Vec<f32> = self.pixels.iter().flat_map(|p| p.to_array()).collect();
+                let buf = ::image::Rgb32FImage::from_raw(self.width, self.height, data).expect("size matches pixels");
+                buf.save(path).map_err(|e| io(e.to_string()))
+            }
+            "png" => self.to_srgb8(tone).save(path).map_err(|e| io(e.to_string())),
+            _ => Err(ImageError::UnsupportedExtension { path: path.to_owned() }),
+        }
+    }
+
+    /// The tone-mapped 8-bit sRGB image (see the module doc for the curve).
+    pub fn to_srgb8(&self, tone: ToneMap) -> ::image::RgbImage {
+        let scale = tone.exposure.exp2();
+        let data: Vec<u8> = self
+            .pixels
+            .iter()
+            .flat_map(|p| {
+                let c = *p * scale;
+                [c.x, c.y, c.z].map(|v| (srgb_encode(if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) }) * 255.0 + 0.5) as u8)
+            })
+            .collect();
+        ::image::RgbImage::from_raw(self.width, self.height, data).expect("size matches pixels")
+    }
+}
+
+fn extension(path: &Path) -> String {
+    path.extension().and_then(|e| e.to_str()).unwrap_or("").to_ascii_lowercase()
+}
+
+/// The sRGB transfer function (linear → encoded), for values in [0,1].
+pub fn srgb_encode(v: f32) -> f32 {
+    if v <= 0.003_130_8 { 12.92 * v } else { 1.055 * v.powf(1.0 / 2.4) - 0.055 }
+}
+
+/// The inverse sRGB transfer function (encoded → linear), for values in [0,1].
+pub fn srgb_decode(v: f32) -> f32 {
+    if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn gradient() -> Image {
+        Image::from_fn(7, 5, |x, y| Vec3::new(x as f32 * 0.37, y as f32 * 1.5 + 0.01, 100.0 / (1.0 + x as f32)))
+    }
+
+    #[test]
+    fn exr_round_trip_is_exact() {
+        let dir = std::env::temp_dir().join(format!("glimpse-img-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = gradient();
+        let p = dir.join("a.exr");
+        img.write(&p, ToneMap::default()).unwrap();
+        assert_eq!(Image::read(&p).unwrap(), img);
+    }
+
+    #[test]
+    fn hdr_round_trip_keeps_rgbe_precision() {
+        let dir = std::env::temp_dir().join(format!("glimpse-img-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let img = gradient();
+        let p = dir.join("a.hdr");
+        img.write(&p, ToneMap::default()).unwrap();
+        let back = Image::read(&p).unwrap();
+        // RGBE shares one exponent per pixel, so the error is relative to the pixel's largest channel.
+        let worst =
+            img.pixels.iter().zip(&back.pixels).map(|(a, b)| (*a - *b).abs().max_element() / a.max_element()).fold(0.0f32, f32::max);
+        println!("RGBE error relative to the largest channel, worst {worst:.4}");
+        assert!(worst < 0.01, "RGBE keeps 8 mantissa bits");
+    }
+
+    #[test]
+    fn png_tone_map_is_srgb() {
+        let img = Image::from_fn(3, 1, |x, _| Vec3::splat([0.0, 0.5, 4.0][x as usize]));
+        let ldr = img.to_srgb8(ToneMap::default());
+        assert_eq!(ldr.get_pixel(0, 0).0, [0, 0, 0]);
+        assert_eq!(ldr.get_pixel(1, 0).0, [188, 188, 188], "0.5 linear is 188 in sRGB");
+        assert_eq!(ldr.get_pixel(2, 0).0, [255, 255, 255]);
+        let darker = img.to_srgb8(ToneMap { exposure: -3.0 });
+        assert_eq!(darker.get_pixel(2, 0).0, [188, 188, 188], "4 · 2^-3 = 0.5");
+        assert!((srgb_decode(srgb_encode(0.2)) - 0.2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn unsupported_extension_and_missing_file_name_the_path() {
+        let e = Image::read(Path::new("/nonexistent/x.exr")).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent/x.exr"), "{e}");
+        let e = gradient().write(Path::new("/tmp/x.bmpx"), ToneMap::default()).unwrap_err().to_string();
+        assert!(e.contains("unsupported"), "{e}");
+    }
+}

@@ -1,0 +1,71 @@
+//! A pinhole perspective camera. Pixel (0,0) is the top-left corner; a pixel's continuous
+//! coordinates run over [x, x+1) × [y, y+1).
+
+use glimpse_core::{Aabb, Ray, Vec3};
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Camera {
+    pub position: Vec3,
+    pub target: Vec3,
+    pub up: Vec3,
+    /// Vertical field of view in radians.
+    pub fov_y: f32,
+}
+
+impl Camera {
+    pub fn look_at(position: Vec3, target: Vec3, up: Vec3, fov_y_degrees: f32) -> Self {
+        Self { position, target, up, fov_y: fov_y_degrees.to_radians() }
+    }
+
+    /// A camera on the +z side of the box, slightly above, looking at its centre from far enough
+    /// that the bounding sphere fills the view.
+    pub fn framing(bounds: Aabb, aspect: f32) -> Self {
+        let fov_y = 45f32.to_radians();
+        let center = bounds.center();
+        let radius = (bounds.extent().length() * 0.5).max(1e-3);
+        let half = (fov_y * 0.5).min((fov_y * 0.5).tan().atan2(1.0 / aspect.max(1e-3)).max(1e-3));
+        let distance = radius / half.sin();
+        let dir = Vec3::new(0.0, 0.25, 1.0).normalize();
+        Self { position: center + dir * distance, target: center, up: Vec3::Y, fov_y }
+    }
+
+    /// The primary ray through continuous pixel coordinates `(px, py)` of a `width × height` image.
+    pub fn ray(&self, px: f32, py: f32, width: u32, height: u32) -> Ray {
+        let forward = (self.target - self.position).normalize();
+        let right = forward.cross(self.up).normalize();
+        let up = right.cross(forward);
+        let tan_half = (self.fov_y * 0.5).tan();
+        let aspect = width as f32 / height as f32;
+        let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
+        let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
+        Ray::new(self.position, (forward + right * sx + up * sy).normalize())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn centre_pixel_looks_at_target_and_corners_are_symmetric() {
+        let c = Camera::look_at(Vec3::new(0.0, 1.0, 5.0), Vec3::new(0.0, 1.0, 0.0), Vec3::Y, 60.0);
+        let r = c.ray(50.0, 25.0, 100, 50);
+        assert!((r.dir - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
+        let tl = c.ray(0.0, 0.0, 100, 50).dir;
+        assert!(tl.x < 0.0 && tl.y > 0.0, "top-left pixel looks up and left: {tl}");
+        let vertical = 2.0 * (c.ray(50.0, 0.0, 100, 50).dir.y).asin();
+        assert!((vertical - 60f32.to_radians()).abs() < 1e-4);
+    }
+
+    #[test]
+    fn framing_sees_every_corner() {
+        let b = Aabb::new(Vec3::new(-1.0, 0.0, -2.0), Vec3::new(3.0, 1.0, 0.5));
+        let c = Camera::framing(b, 16.0 / 9.0);
+        let forward = (c.target - c.position).normalize();
+        for i in 0..8 {
+            let p = Vec3::new([b.min.x, b.max.x][i & 1], [b.min.y, b.max.y][(i >> 1) & 1], [b.min.z, b.max.z][i >> 2]);
+            let angle = forward.angle_between((p - c.position).normalize());
+            assert!(angle < c.fov_y * 0.5 + 1e-4, "corner {p} outside the view");
+        }
+    }
+}

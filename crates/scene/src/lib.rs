@@ -1,0 +1,51 @@
+//! glimpse-scene: what is rendered. A [`Scene`] is plain data linked by index (meshes,
+//! materials, textures, instances, lights, an environment, a camera) plus animation as a function
+//! of time; [`Scene::at`] evaluates it into a [`SceneFrame`] of world-space data that the
+//! tracer and the techniques consume.
+//!
+//! Loaders: glTF 2.0 ([`gltf_loader`]), OBJ+MTL ([`obj_loader`]), `scene.toml`
+//! ([`toml_loader`]), and the built-in scenes ([`builtin`]). [`load`] picks by name or extension.
+
+pub mod animation;
+pub mod builtin;
+pub mod camera;
+pub mod environment;
+pub mod error;
+pub mod frame;
+pub mod gltf_loader;
+pub mod light;
+pub mod model;
+pub mod obj_loader;
+pub mod toml_loader;
+pub mod validate;
+
+pub use animation::{Deformation, Motion, Transform, TransformKey};
+pub use camera::Camera;
+pub use environment::Environment;
+pub use error::SceneError;
+pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
+pub use light::{Light, LightKind};
+pub use model::{Instance, Material, Mesh, Scene};
+
+use std::path::Path;
+
+/// Loads a scene by built-in name (see [`builtin::NAMES`]) or by file path (`.gltf`, `.glb`,
+/// `.obj`, `.toml`), then validates it (see [`validate`]).
+pub fn load(spec: &str) -> Result<Scene, SceneError> {
+    let path = Path::new(spec);
+    let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
+    let mut scene = match ext.as_deref() {
+        Some("gltf" | "glb") => gltf_loader::load(path)?,
+        Some("obj") => obj_loader::load(path)?,
+        Some("toml") => toml_loader::load(path)?,
+        Some(other) if !builtin::NAMES.contains(&spec) => {
+            return Err(SceneError::Unsupported {
+                path: path.to_owned(),
+                message: format!("unknown scene file extension '.{other}' (use .gltf, .glb, .obj or .toml)"),
+            });
+        }
+        _ => builtin::build(spec)?,
+    };
+    validate::validate(&mut scene, spec)?;
+    Ok(scene)
+}

@@ -1,0 +1,149 @@
+//! The scene's plain data: meshes, materials, textures and instances, linked by index.
+
+use crate::{Camera, Deformation, Environment, Light, Motion};
+use glimpse_core::{Aabb, Image, Mat4, Vec2, Vec3};
+
+/// A triangle mesh in its own object space, with one material.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    pub name: String,
+    pub positions: Vec<Vec3>,
+    /// Per-vertex shading normals: empty, or one per position.
+    pub normals: Vec<Vec3>,
+    /// Per-vertex texture coordinates (glTF convention: v = 0 is the image's top row): empty, or
+    /// one per position.
+    pub uvs: Vec<Vec2>,
+    pub indices: Vec<[u32; 3]>,
+    pub material: u32,
+    /// Vertex animation; `None` for a rigid mesh.
+    pub deformation: Option<Deformation>,
+}
+
+impl Mesh {
+    pub fn bounds(&self) -> Aabb {
+        Aabb::from_points(&self.positions)
+    }
+
+    /// Area-weighted vertex normals from the triangles (for meshes without normals and for
+    /// deformed positions).
+    pub fn vertex_normals(positions: &[Vec3], indices: &[[u32; 3]]) -> Vec<Vec3> {
+        let mut n = vec![Vec3::ZERO; positions.len()];
+        for t in indices {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            let face = (b - a).cross(c - a); // length = 2 × area: area weighting for free
+            for &i in t {
+                n[i as usize] += face;
+            }
+        }
+        n.iter().map(|v| v.normalize_or(Vec3::Y)).collect()
+    }
+}
+
+/// A metallic-roughness material (the glTF 2.0 model). Lambertian techniques use `base_color`
+/// as the diffuse albedo; the path tracer uses all of it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    pub name: String,
+    pub base_color: Vec3,
+    /// Index into [`Scene::textures`], multiplied with `base_color`.
+    pub base_color_texture: Option<u32>,
+    /// Perceptual roughness in [0,1] (GGX α = roughness²).
+    pub roughness: f32,
+    pub metallic: f32,
+    /// Emitted radiance (W/(m²·sr) per channel): a non-zero emission makes every triangle with
+    /// this material an area light.
+    pub emission: Vec3,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Self {
+            name: "default".into(),
+            base_color: Vec3::splat(0.8),
+            base_color_texture: None,
+            roughness: 1.0,
+            metallic: 0.0,
+            emission: Vec3::ZERO,
+        }
+    }
+}
+
+impl Material {
+    pub fn diffuse(name: &str, base_color: Vec3) -> Self {
+        Self { name: name.into(), base_color, ..Default::default() }
+    }
+
+    pub fn emissive(name: &str, emission: Vec3) -> Self {
+        Self { name: name.into(), base_color: Vec3::ZERO, emission, ..Default::default() }
+    }
+
+    pub fn is_emissive(&self) -> bool {
+        self.emission.max_element() > 0.0
+    }
+}
+
+/// One placement of a mesh in the world.
+#[derive(Clone, Debug)]
+pub struct Instance {
+    pub mesh: u32,
+    pub motion: Motion,
+}
+
+impl Instance {
+    pub fn fixed(mesh: u32, transform: Mat4) -> Self {
+        Self { mesh, motion: Motion::Fixed(transform) }
+    }
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    pub name: String,
+    pub meshes: Vec<Mesh>,
+    pub materials: Vec<Material>,
+    /// Linear RGB textures.
+    pub textures: Vec<Image>,
+    pub instances: Vec<Instance>,
+    /// Punctual lights (point, spot, directional). Area lights are emissive triangles.
+    pub lights: Vec<Light>,
+    pub environment: Option<Environment>,
+    /// The camera from the file; `None` frames the scene's bounds (see [`Scene::camera_or_default`]).
+    pub camera: Option<Camera>,
+    /// Problems that did not stop loading (degenerate triangles removed, ignored features),
+    /// one line each naming the file; the command line prints them.
+    pub warnings: Vec<String>,
+}
+
+impl Scene {
+    /// Adds a mesh and one fixed instance of it; returns the mesh index.
+    pub fn add_mesh(&mut self, mesh: Mesh, transform: Mat4) -> u32 {
+        let id = self.meshes.len() as u32;
+        self.meshes.push(mesh);
+        self.instances.push(Instance::fixed(id, transform));
+        id
+    }
+
+    pub fn add_material(&mut self, m: Material) -> u32 {
+        self.materials.push(m);
+        self.materials.len() as u32 - 1
+    }
+
+    pub fn triangle_count(&self) -> usize {
+        self.instances.iter().map(|i| self.meshes[i.mesh as usize].indices.len()).sum()
+    }
+
+    /// True when anything moves or deforms over time.
+    pub fn is_animated(&self) -> bool {
+        self.instances.iter().any(|i| !i.motion.is_static())
+            || self.meshes.iter().any(|m| m.deformation.is_some())
+            || self.lights.iter().any(|l| !l.motion.is_static())
+    }
+
+    /// World bounds at time 0.
+    pub fn bounds(&self) -> Aabb {
+        self.at(0.0).bounds
+    }
+
+    pub fn camera_or_default(&self, aspect: f32) -> Camera {
+        self.camera.clone().unwrap_or_else(|| Camera::framing(self.bounds(), aspect))
+    }
+}

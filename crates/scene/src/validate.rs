@@ -1,0 +1,137 @@
+//! Checks a scene before anything renders it, so that bad input becomes one clear error naming
+//! its source instead of a panic or a silently wrong image.
+//!
+//! Policy: non-finite numbers, out-of-range indices, an empty or zero-size scene and absurd
+//! parameters are errors. Degenerate (zero-area) triangles are common in scanned and exported
+//! meshes, so they are removed with a warning; a mesh left with no triangle is an error.
+
+use crate::{LightKind, Scene, SceneError};
+use glimpse_core::is_finite3;
+
+pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
+    let invalid = |message: String| SceneError::Invalid { source_name: source.to_owned(), message };
+
+    for (mi, mat) in scene.materials.iter().enumerate() {
+        let name = &mat.name;
+        if !is_finite3(mat.base_color) || !is_finite3(mat.emission) || !mat.roughness.is_finite() || !mat.metallic.is_finite() {
+            return Err(invalid(format!("material {mi} '{name}' has a non-finite parameter")));
+        }
+        if mat.base_color.min_element() < 0.0 || mat.emission.min_element() < 0.0 {
+            return Err(invalid(format!("material {mi} '{name}' has a negative colour or emission")));
+        }
+        if !(0.0..=1.0).contains(&mat.roughness) || !(0.0..=1.0).contains(&mat.metallic) {
+            return Err(invalid(format!(
+                "material {mi} '{name}': roughness {} and metallic {} must lie in [0, 1]",
+                mat.roughness, mat.metallic
+            )));
+        }
+        if let Some(t) = mat.base_color_texture {
+            if t as usize >= scene.textures.len() {
+                return Err(invalid(format!("material {mi} '{name}' uses texture {t}, but there are {}", scene.textures.len())));
+            }
+        }
+    }
+
+    for (mi, mesh) in scene.meshes.iter_mut().enumerate() {
+        let name = format!("mesh {mi} '{}'", mesh.name);
+        if mesh.material as usize >= scene.materials.len() {
+            return Err(invalid(format!("{name} uses material {}, but there are {}", mesh.material, scene.materials.len())));
+        }
+        if let Some(i) = mesh.positions.iter().position(|p| !is_finite3(*p)) {
+            return Err(invalid(format!("{name}: vertex {i} has a NaN or infinite coordinate {}", mesh.positions[i])));
+        }
+        if !mesh.normals.is_empty() && mesh.normals.len() != mesh.positions.len() {
+            return Err(invalid(format!("{name}: {} normals for {} vertices", mesh.normals.len(), mesh.positions.len())));
+        }
+        if !mesh.uvs.is_empty() && mesh.uvs.len() != mesh.positions.len() {
+            return Err(invalid(format!("{name}: {} texture coordinates for {} vertices", mesh.uvs.len(), mesh.positions.len())));
+        }
+        if mesh.normals.iter().any(|n| !is_finite3(*n)) || mesh.uvs.iter().any(|uv| !uv.is_finite()) {
+            return Err(invalid(format!("{name}: a normal or texture coordinate is NaN or infinite")));
+        }
+        let n = mesh.positions.len() as u32;
+        if let Some(t) = mesh.indices.iter().find(|t| t.iter().any(|&i| i >= n)) {
+            return Err(invalid(format!("{name}: triangle {t:?} indexes past its {n} vertices")));
+        }
+        if mesh.indices.is_empty() {
+            return Err(invalid(format!("{name} has no triangles")));
+        }
+        let before = mesh.indices.len();
+        let positions = &mesh.positions;
+        mesh.indices.retain(|t| {
+            let [a, b, c] = t.map(|i| positions[i as usize]);
+            (b - a).cross(c - a).length_squared() > 0.0
+        });
+        let removed = before - mesh.indices.len();
+        if mesh.indices.is_empty() {
+            return Err(invalid(format!("{name}: all {before} triangles are degenerate (zero area)")));
+        }
+        if removed > 0 {
+            scene.warnings.push(format!("{source}: {name}: removed {removed} degenerate (zero-area) triangles of {before}"));
+        }
+        if let Some(crate::Deformation::Keyframes { times, positions }) = &mesh.deformation {
+            if times.len() != positions.len() || positions.iter().any(|p| p.len() != mesh.positions.len()) {
+                return Err(invalid(format!("{name}: vertex keyframes do not match the vertex count")));
+            }
+            if positions.iter().flatten().any(|p| !is_finite3(*p)) {
+                return Err(invalid(format!("{name}: a vertex keyframe has a NaN or infinite coordinate")));
+            }
+        }
+    }
+
+    if scene.instances.is_empty() {
+        return Err(invalid("the scene is empty: it has no geometry".into()));
+    }
+    for (ii, inst) in scene.instances.iter().enumerate() {
+        if inst.mesh as usize >= scene.meshes.len() {
+            return Err(invalid(format!("instance {ii} uses mesh {}, but there are {}", inst.mesh, scene.meshes.len())));
+        }
+        let m = inst.motion.at(0.0);
+        if !m.is_finite() || m.determinant() == 0.0 {
+            return Err(invalid(format!("instance {ii}: its transform is singular or not finite")));
+        }
+    }
+
+    for (li, l) in scene.lights.iter().enumerate() {
+        if !is_finite3(l.intensity) || !is_finite3(l.position) || !is_finite3(l.direction) || l.intensity.min_element() < 0.0 {
+            return Err(invalid(format!("light {li}: intensity, position and direction must be finite and intensity non-negative")));
+        }
+        if matches!(l.kind, LightKind::Spot { .. } | LightKind::Directional) && l.direction.length_squared() == 0.0 {
+            return Err(invalid(format!("light {li}: its direction is the zero vector")));
+        }
+        if let LightKind::Spot { inner_angle, outer_angle } = l.kind {
+            if !(0.0..=std::f32::consts::FRAC_PI_2).contains(&outer_angle) || !(0.0..=outer_angle).contains(&inner_angle) {
+                return Err(invalid(format!("light {li}: spot angles need 0 <= inner <= outer <= 90°")));
+            }
+        }
+    }
+
+    if let Some(env) = &scene.environment {
+        if !env.scale.is_finite() || env.scale < 0.0 {
+            return Err(invalid(format!("environment scale {} must be finite and non-negative", env.scale)));
+        }
+        if env.image.pixels.iter().any(|p| !is_finite3(*p) || p.min_element() < 0.0) {
+            return Err(invalid("the environment map has NaN, infinite or negative texels".into()));
+        }
+    }
+
+    if let Some(cam) = &scene.camera {
+        if !is_finite3(cam.position) || !is_finite3(cam.target) || !is_finite3(cam.up) {
+            return Err(invalid("the camera has a non-finite position, target or up vector".into()));
+        }
+        let forward = cam.target - cam.position;
+        if forward.length_squared() == 0.0 || forward.cross(cam.up).length_squared() == 0.0 {
+            return Err(invalid("the camera's target equals its position, or its up vector is parallel to its view".into()));
+        }
+        if !(cam.fov_y > 0.0 && cam.fov_y < std::f32::consts::PI) {
+            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, 180°)", cam.fov_y.to_degrees())));
+        }
+    }
+
+    let extent = scene.bounds().extent();
+    let nonzero_axes = [extent.x, extent.y, extent.z].iter().filter(|&&e| e > 0.0).count();
+    if nonzero_axes < 2 || !is_finite3(extent) {
+        return Err(invalid(format!("the scene has zero area (its bounds' extent is {})", extent)));
+    }
+    Ok(())
+}
