@@ -143,6 +143,15 @@ impl Scene {
         self.at(0.0).bounds
     }
 
+    /// Base colour of `material` at texture coordinates `uv` (texture × factor).
+    pub fn base_color(&self, material: u32, uv: Vec2) -> Vec3 {
+        let m = &self.materials[material as usize];
+        match m.base_color_texture {
+            Some(t) => m.base_color * self.textures[t as usize].sample_repeat(uv.x, uv.y),
+            None => m.base_color,
+        }
+    }
+
     pub fn camera_or_default(&self, aspect: f32) -> Camera {
         self.camera.clone().unwrap_or_else(|| Camera::framing(self.bounds(), aspect))
     }

@@ -1,1 +1,51 @@
+//! glimpse-trace: the exact ray tracer every approximate technique is measured against.
+//!
+//! - [`bvh`]: binned-SAH BVH2 over boxes, parallel build, refit.
+//! - [`triangle`]: the watertight ray–triangle test.
+//! - [`tracer`]: [`ExactTracer`], the two-level BVH over a [`SceneFrame`].
+//! - [`brute`]: every ray against every triangle, the oracle for the tracer's tests.
+//! - [`surface`]: from a [`Hit`] to positions, normals, texture coordinates and albedo.
+//! - [`gbuffer`]: primary visibility per pixel.
+//! - `embree` (feature): Intel Embree on the same scene, for cross-checks and benchmarks.
 
+pub mod brute;
+pub mod bvh;
+#[cfg(feature = "embree")]
+pub mod embree;
+pub mod gbuffer;
+pub mod surface;
+pub mod tracer;
+pub mod triangle;
+
+pub use brute::BruteForce;
+pub use gbuffer::GBuffer;
+pub use surface::SurfacePoint;
+pub use tracer::{ExactTracer, Hit};
+
+use glimpse_core::Ray;
+pub use glimpse_scene::SceneFrame;
+
+/// Exact or approximate answer to "is this segment blocked?": is anything hit at
+/// `0 < t < t_max` along `ray`? Implemented by the exact BVH and by every approximate
+/// visibility structure (ROMA, the voxelization array, the distance field), so that techniques
+/// and benchmarks can swap one for another.
+pub trait Visibility: Send + Sync {
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool;
+}
+
+/// Visibility that also finds the first hit.
+pub trait ClosestHit: Visibility {
+    fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit>;
+}
+
+impl Visibility for ExactTracer {
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        ExactTracer::occluded(self, ray, t_max)
+    }
+}
+
+impl ClosestHit for ExactTracer {
+    fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        ExactTracer::closest_hit(self, ray, t_max)
+    }
+}

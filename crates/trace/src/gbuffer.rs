@@ -1,0 +1,110 @@
+//! The GBuffer: what the camera sees through each pixel's centre, found with exact primary rays.
+//! Every technique shades the same GBuffer as its reference, so their difference is only the
+//! technique's own approximation. Stored as flat per-attribute arrays (GPU-friendly).
+
+use crate::{ExactTracer, SceneFrame, SurfacePoint};
+use glimpse_core::{Ray, Vec2, Vec3};
+use glimpse_scene::Camera;
+use rayon::prelude::*;
+
+/// Instance id of pixels that see no geometry.
+pub const NO_HIT: u32 = u32::MAX;
+
+#[derive(Clone, Debug)]
+pub struct GBuffer {
+    pub width: u32,
+    pub height: u32,
+    pub camera: Camera,
+    pub position: Vec<Vec3>,
+    /// Geometric normal facing the camera.
+    pub normal: Vec<Vec3>,
+    /// Interpolated normal in the geometric normal's hemisphere.
+    pub shading_normal: Vec<Vec3>,
+    /// Distance along the primary ray (∞ on a miss).
+    pub depth: Vec<f32>,
+    pub material: Vec<u32>,
+    /// Instance id, or [`NO_HIT`].
+    pub instance: Vec<u32>,
+    pub uv: Vec<Vec2>,
+    /// Base colour × texture.
+    pub albedo: Vec<Vec3>,
+    /// Emitted radiance towards the camera.
+    pub emission: Vec<Vec3>,
+    /// Unit direction of each pixel's primary ray (so misses can look up the environment).
+    pub view_dir: Vec<Vec3>,
+}
+
+impl GBuffer {
+    pub fn new(frame: &SceneFrame, tracer: &ExactTracer, camera: &Camera, width: u32, height: u32) -> GBuffer {
+        let texels: Vec<(Ray, Option<SurfacePoint>)> = (0..width * height)
+            .into_par_iter()
+            .map(|i| {
+                let (x, y) = (i % width, i / width);
+                let ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5, width, height);
+                let sp = tracer.closest_hit(&ray, f32::INFINITY).map(|h| SurfacePoint::from_hit(frame, &ray, &h));
+                (ray, sp)
+            })
+            .collect();
+        let n = texels.len();
+        let mut g = GBuffer {
+            width,
+            height,
+            camera: camera.clone(),
+            position: Vec::with_capacity(n),
+            normal: Vec::with_capacity(n),
+            shading_normal: Vec::with_capacity(n),
+            depth: Vec::with_capacity(n),
+            material: Vec::with_capacity(n),
+            instance: Vec::with_capacity(n),
+            uv: Vec::with_capacity(n),
+            albedo: Vec::with_capacity(n),
+            emission: Vec::with_capacity(n),
+            view_dir: Vec::with_capacity(n),
+        };
+        for (ray, sp) in texels {
+            g.view_dir.push(ray.dir);
+            match sp {
+                Some(s) => {
+                    g.position.push(s.position);
+                    g.normal.push(s.normal);
+                    g.shading_normal.push(s.shading_normal);
+                    g.depth.push((s.position - ray.origin).length());
+                    g.material.push(s.material);
+                    g.instance.push(s.instance);
+                    g.uv.push(s.uv);
+                    g.albedo.push(s.base_color(frame));
+                    g.emission.push(s.emission(frame));
+                }
+                None => {
+                    g.position.push(Vec3::ZERO);
+                    g.normal.push(Vec3::ZERO);
+                    g.shading_normal.push(Vec3::ZERO);
+                    g.depth.push(f32::INFINITY);
+                    g.material.push(0);
+                    g.instance.push(NO_HIT);
+                    g.uv.push(Vec2::ZERO);
+                    g.albedo.push(Vec3::ZERO);
+                    g.emission.push(Vec3::ZERO);
+                }
+            }
+        }
+        g
+    }
+
+    pub fn len(&self) -> usize {
+        self.depth.len()
+    }
+
+    pub fn is_empty(&self) -> bool {
+        self.depth.is_empty()
+    }
+
+    pub fn is_hit(&self, i: usize) -> bool {
+        self.instance[i] != NO_HIT
+    }
+
+    /// The surface point of pixel `i`, if it sees geometry (for spawning secondary rays).
+    pub fn point(&self, i: usize) -> Option<(Vec3, Vec3)> {
+        self.is_hit(i).then(|| (self.position[i], self.shading_normal[i]))
+    }
+}

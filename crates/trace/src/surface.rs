@@ -1,0 +1,70 @@
+//! Surface data at a hit: world position, normals, texture coordinates, material and albedo.
+//!
+//! Shading is two-sided: `normal` (geometric) and `shading_normal` are flipped to face the side
+//! the ray came from; `front_face` records whether the triangle's winding faced the ray, which
+//! one-sided emitters (area lights) need.
+
+use crate::{Hit, SceneFrame};
+use glimpse_core::{Mat3, Ray, Vec2, Vec3};
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfacePoint {
+    pub position: Vec3,
+    /// Unit geometric normal, facing the ray's origin.
+    pub normal: Vec3,
+    /// Unit interpolated normal (geometric where the mesh has none), in `normal`'s hemisphere.
+    pub shading_normal: Vec3,
+    pub front_face: bool,
+    pub uv: Vec2,
+    pub material: u32,
+    pub instance: u32,
+    pub triangle: u32,
+}
+
+impl SurfacePoint {
+    pub fn from_hit(frame: &SceneFrame, ray: &Ray, hit: &Hit) -> Self {
+        let scene = frame.scene;
+        let inst = &scene.instances[hit.instance as usize];
+        let mesh = &scene.meshes[inst.mesh as usize];
+        let m = frame.transforms[hit.instance as usize];
+        let [i0, i1, i2] = mesh.indices[hit.triangle as usize].map(|i| i as usize);
+        let pos = &frame.positions[inst.mesh as usize];
+        let b0 = 1.0 - hit.b1 - hit.b2;
+        let p = [pos[i0], pos[i1], pos[i2]].map(|v| m.transform_point3(v));
+        // Interpolating the vertices is more precise than origin + t·dir for long rays.
+        let position = p[0] * b0 + p[1] * hit.b1 + p[2] * hit.b2;
+        let raw = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or(Vec3::Y);
+        let front_face = raw.dot(ray.dir) < 0.0;
+        let normal = if front_face { raw } else { -raw };
+        let normals = &frame.normals[inst.mesh as usize];
+        let shading_normal = if normals.is_empty() {
+            normal
+        } else {
+            let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
+            let n = (normal_matrix * (normals[i0] * b0 + normals[i1] * hit.b1 + normals[i2] * hit.b2)).normalize_or(normal);
+            if n.dot(normal) < 0.0 { -n } else { n }
+        };
+        let uv =
+            if mesh.uvs.is_empty() { Vec2::new(hit.b1, hit.b2) } else { mesh.uvs[i0] * b0 + mesh.uvs[i1] * hit.b1 + mesh.uvs[i2] * hit.b2 };
+        SurfacePoint {
+            position,
+            normal,
+            shading_normal,
+            front_face,
+            uv,
+            material: mesh.material,
+            instance: hit.instance,
+            triangle: hit.triangle,
+        }
+    }
+
+    /// Diffuse albedo: base colour × texture.
+    pub fn base_color(&self, frame: &SceneFrame) -> Vec3 {
+        frame.scene.base_color(self.material, self.uv)
+    }
+
+    /// Emitted radiance towards the ray's origin (area lights emit from their front face only).
+    pub fn emission(&self, frame: &SceneFrame) -> Vec3 {
+        if self.front_face { frame.scene.materials[self.material as usize].emission } else { Vec3::ZERO }
+    }
+}
