@@ -1,1 +1,22 @@
+//! glimpse-render: the [`Technique`] interface and registry, and the exact reference techniques
+//! that every approximate technique is compared with.
 
+pub mod ao;
+pub mod context;
+pub mod params;
+pub mod progress;
+pub mod registry;
+pub mod stats;
+pub mod technique;
+
+pub use context::FrameContext;
+pub use params::{ParamError, Params};
+pub use progress::Progress;
+pub use registry::{Registry, TechniqueInfo};
+pub use stats::{Stats, Stopwatch};
+pub use technique::{RenderError, Settings, Technique};
+
+/// The techniques this crate provides, for the registry.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![ao::AoExact::info()]
+}

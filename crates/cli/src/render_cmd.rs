@@ -1,0 +1,116 @@
+//! `glimpse render SCENE -t ID -o OUT`: one image, with a progress bar for long renders and a
+//! summary line.
+
+use crate::args::{check_output, parse_size, parse_spp, parse_time};
+use anyhow::{Context, Result};
+use clap::Args;
+use glimpse_core::ToneMap;
+use glimpse_render::{FrameContext, Params, Settings, Stopwatch};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Args)]
+pub struct RenderArgs {
+    /// A built-in scene (see `glimpse scenes`) or a .gltf, .glb, .obj or .toml file.
+    pub scene: String,
+    /// Technique id (see `glimpse techniques`).
+    #[arg(short, long)]
+    pub technique: String,
+    /// Image size, WIDTHxHEIGHT.
+    #[arg(long, default_value = "512x512", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// Samples per pixel.
+    #[arg(long, default_value_t = 16, value_parser = parse_spp)]
+    pub spp: u32,
+    /// Scene time in seconds (for animated scenes).
+    #[arg(long, default_value_t = 0.0, value_parser = parse_time)]
+    pub time: f32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Technique parameter, key=value (repeatable).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
+    /// PNG exposure in stops.
+    #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
+    pub exposure: f32,
+    /// Output image: .png (tone-mapped sRGB), .exr or .hdr (linear).
+    #[arg(short, long)]
+    pub output: PathBuf,
+}
+
+pub fn run(a: RenderArgs) -> Result<()> {
+    check_output(&a.output)?;
+    if !a.exposure.is_finite() || a.exposure.abs() > 64.0 {
+        anyhow::bail!("--exposure {}: must be a finite number of stops within ±64", a.exposure);
+    }
+    let registry = crate::registry();
+    registry.get(&a.technique)?;
+    let params = Params::parse(&a.set)?;
+    let scene = glimpse_scene::load(&a.scene)?;
+    for w in &scene.warnings {
+        eprintln!("warning: {w}");
+    }
+    let settings = Settings { spp: a.spp, seed: a.seed };
+    let mut technique = registry.create(&a.technique, &scene, &settings, &params)?;
+    let (width, height) = a.size;
+
+    let total = Stopwatch::start();
+    let ctx = FrameContext::new(&scene, a.time, width, height);
+    let gbuffer = ctx.gbuffer();
+    let prepare = technique.prepare(&ctx)?;
+    let mut image = ctx.image();
+    let render = with_progress(&ctx, || technique.render(&ctx, &gbuffer, &mut image))?;
+    let total_ms = total.ms();
+
+    image.write(&a.output, ToneMap { exposure: a.exposure }).context("writing the image")?;
+    let mrays = render.rays as f64 / (render.total_ms().max(1e-9) * 1e3);
+    println!(
+        "{} on {} at {width}x{height}, {} spp: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {:.2} Mrays/s -> {}",
+        a.technique,
+        a.scene,
+        a.spp,
+        prepare.total_ms(),
+        render.total_ms(),
+        total_ms,
+        mrays,
+        a.output.display()
+    );
+    Ok(())
+}
+
+/// Runs `f`, showing a progress bar of finished pixels if it takes longer than a second.
+pub fn with_progress<T>(ctx: &FrameContext, f: impl FnOnce() -> T) -> T {
+    let pixels = ctx.width as u64 * ctx.height as u64;
+    ctx.progress.reset();
+    let progress = ctx.progress.clone();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watcher = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let start = std::time::Instant::now();
+            let mut bar: Option<indicatif::ProgressBar> = None;
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(50));
+                if bar.is_none() && start.elapsed() > Duration::from_secs(1) {
+                    let b = indicatif::ProgressBar::new(pixels);
+                    b.set_style(
+                        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% pixels, eta {eta}")
+                            .expect("valid template")
+                            .progress_chars("=> "),
+                    );
+                    bar = Some(b);
+                }
+                if let Some(b) = &bar {
+                    b.set_position(progress.done().min(pixels));
+                }
+            }
+            if let Some(b) = bar {
+                b.finish_and_clear();
+            }
+        })
+    };
+    let out = f();
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    let _ = watcher.join();
+    out
+}

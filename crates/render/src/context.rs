@@ -1,0 +1,47 @@
+//! What a technique sees of one frame: the scene evaluated at the frame's time, the exact tracer
+//! over it, the camera and the image size.
+
+use glimpse_core::Image;
+use glimpse_scene::{Camera, Scene, SceneFrame};
+use glimpse_trace::{ExactTracer, GBuffer};
+
+pub struct FrameContext<'a> {
+    pub frame: SceneFrame<'a>,
+    pub tracer: ExactTracer,
+    pub camera: Camera,
+    pub width: u32,
+    pub height: u32,
+    /// Index of this frame in an animation (temporal techniques re-draw their random choices
+    /// from it); 0 for a still image.
+    pub frame_index: u32,
+    /// Pixels finished in the current `render`, for progress bars.
+    pub progress: crate::Progress,
+}
+
+impl<'a> FrameContext<'a> {
+    pub fn new(scene: &'a Scene, time: f32, width: u32, height: u32) -> Self {
+        let frame = scene.at(time);
+        let tracer = ExactTracer::build(&frame);
+        let camera = scene.camera_or_default(width as f32 / height as f32);
+        Self { frame, tracer, camera, width, height, frame_index: 0, progress: crate::Progress::default() }
+    }
+
+    pub fn scene(&self) -> &'a Scene {
+        self.frame.scene
+    }
+
+    /// Moves to another time of the same scene, updating the tracer in place.
+    pub fn advance(&mut self, time: f32, frame_index: u32) {
+        self.frame = self.frame.scene.at(time);
+        self.tracer.update(&self.frame);
+        self.frame_index = frame_index;
+    }
+
+    pub fn gbuffer(&self) -> GBuffer {
+        GBuffer::new(&self.frame, &self.tracer, &self.camera, self.width, self.height)
+    }
+
+    pub fn image(&self) -> Image {
+        Image::new(self.width, self.height)
+    }
+}
