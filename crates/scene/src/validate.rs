@@ -25,10 +25,10 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
                 mat.roughness, mat.metallic
             )));
         }
-        if let Some(t) = mat.base_color_texture {
-            if t as usize >= scene.textures.len() {
-                return Err(invalid(format!("material {mi} '{name}' uses texture {t}, but there are {}", scene.textures.len())));
-            }
+        if let Some(t) = mat.base_color_texture
+            && t as usize >= scene.textures.len()
+        {
+            return Err(invalid(format!("material {mi} '{name}' uses texture {t}, but there are {}", scene.textures.len())));
         }
     }
 
@@ -99,10 +99,10 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if matches!(l.kind, LightKind::Spot { .. } | LightKind::Directional) && l.direction.length_squared() == 0.0 {
             return Err(invalid(format!("light {li}: its direction is the zero vector")));
         }
-        if let LightKind::Spot { inner_angle, outer_angle } = l.kind {
-            if !(0.0..=std::f32::consts::FRAC_PI_2).contains(&outer_angle) || !(0.0..=outer_angle).contains(&inner_angle) {
-                return Err(invalid(format!("light {li}: spot angles need 0 <= inner <= outer <= 90°")));
-            }
+        if let LightKind::Spot { inner_angle, outer_angle } = l.kind
+            && (!(0.0..=std::f32::consts::FRAC_PI_2).contains(&outer_angle) || !(0.0..=outer_angle).contains(&inner_angle))
+        {
+            return Err(invalid(format!("light {li}: spot angles need 0 <= inner <= outer <= 90°")));
         }
     }
 
