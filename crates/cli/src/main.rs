@@ -2,6 +2,9 @@
 //! Every failure prints one `error:` line naming the file or argument and exits non-zero.
 
 mod args;
+mod bench_cmd;
+mod eval_cmd;
+mod play_cmd;
 mod render_cmd;
 
 use clap::{Parser, Subcommand};
@@ -16,8 +19,17 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
+    /// Every technique on the built-in Cornell box beside its reference, as a report.
+    Demo(eval_cmd::DemoArgs),
     /// Render one image of a scene with one technique.
     Render(render_cmd::RenderArgs),
+    /// Techniques beside their references: timings, metrics, report.html and results.json.
+    Eval(eval_cmd::EvalArgs),
+    /// Benchmarks.
+    #[command(subcommand)]
+    Bench(bench_cmd::BenchCommand),
+    /// Render an animation frame by frame with per-frame stage timings.
+    Play(play_cmd::PlayArgs),
     /// List the built-in scenes.
     Scenes,
     /// List the techniques and the reference each is compared with.
@@ -27,7 +39,11 @@ enum Command {
 fn main() -> ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
+        Command::Demo(a) => eval_cmd::demo(a),
         Command::Render(a) => render_cmd::run(a),
+        Command::Eval(a) => eval_cmd::run(a),
+        Command::Bench(c) => bench_cmd::run(c),
+        Command::Play(a) => play_cmd::run(a),
         Command::Scenes => {
             for name in glimpse_scene::builtin::NAMES {
                 println!("{name:<18} {}", glimpse_scene::builtin::describe(name));
@@ -36,7 +52,7 @@ fn main() -> ExitCode {
         }
         Command::Techniques => {
             println!("{:<18} {:<26} {:<14} description", "id", "family", "reference");
-            for t in registry().all() {
+            for t in glimpse_eval::registry().all() {
                 println!("{:<18} {:<26} {:<14} {}", t.id, t.family, t.reference.unwrap_or("(exact)"), t.description);
             }
             Ok(())
@@ -53,7 +69,3 @@ fn main() -> ExitCode {
     }
 }
 
-/// Every technique glimpse knows, from every technique crate.
-pub fn registry() -> glimpse_render::Registry {
-    glimpse_render::Registry::new(glimpse_render::techniques())
-}

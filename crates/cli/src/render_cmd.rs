@@ -43,7 +43,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if !a.exposure.is_finite() || a.exposure.abs() > 64.0 {
         anyhow::bail!("--exposure {}: must be a finite number of stops within ±64", a.exposure);
     }
-    let registry = crate::registry();
+    let registry = glimpse_eval::registry();
     registry.get(&a.technique)?;
     let params = Params::parse(&a.set)?;
     let scene = glimpse_scene::load(&a.scene)?;

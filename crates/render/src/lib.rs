@@ -2,10 +2,19 @@
 //! that every approximate technique is compared with.
 
 pub mod ao;
+pub mod bsdf;
 pub mod context;
+pub mod direct;
+pub mod env;
+pub mod gi;
+pub mod lights;
+pub mod metrics;
 pub mod params;
 pub mod progress;
+pub mod pt;
 pub mod registry;
+pub mod rsm;
+pub mod soft;
 pub mod stats;
 pub mod technique;
 
@@ -18,5 +27,12 @@ pub use technique::{RenderError, Settings, Technique};
 
 /// The techniques this crate provides, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
-    vec![ao::AoExact::info()]
+    vec![
+        ao::AoExact::info(),
+        soft::SoftExact::info(),
+        lights::LightsExact::info(),
+        env::EnvExact::info(),
+        gi::GiExact::info(),
+        pt::PathTracer::info(),
+    ]
 }

@@ -13,6 +13,7 @@ pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod gbuffer;
+pub mod rays;
 pub mod surface;
 pub mod tracer;
 pub mod triangle;

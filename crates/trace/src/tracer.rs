@@ -6,11 +6,12 @@
 //! The TLAS over these entries is rebuilt per frame (it has one leaf per moving instance plus one
 //! for the static world, so that costs microseconds).
 
-use crate::bvh::{BuildParams, Bvh};
+use crate::bvh::{BuildParams, Bvh, Bvh4, Bvh4Node, WIDTH};
 use crate::triangle::PreparedRay;
 use glimpse_core::glam::Affine3A;
-use glimpse_core::{Aabb, Ray, Vec3, Vec3A};
+use glimpse_core::{Aabb, Ray, Vec3, Vec3A, Vec4};
 use glimpse_scene::SceneFrame;
+use std::mem::MaybeUninit;
 
 /// A ray's closest intersection: the parameter `t` along the ray, barycentrics of vertices 1
 /// and 2, and which instance and triangle (index into the mesh's `indices`) were hit.
@@ -33,10 +34,12 @@ pub struct PrimId {
     pub triangle: u32,
 }
 
-/// Triangles in BVH leaf order, so a leaf's range indexes `triangles` directly.
+/// Triangles in BVH leaf order, so a leaf's range indexes `triangles` directly. `bvh` is the
+/// binary tree (built, refitted, GPU layout); `wide` is its 4-wide form that the CPU traverses.
 #[derive(Clone, Debug, Default)]
 pub struct Blas {
     pub bvh: Bvh,
+    pub wide: Bvh4,
     pub triangles: Vec<[Vec3A; 3]>,
     pub ids: Vec<PrimId>,
 }
@@ -47,20 +50,25 @@ impl Blas {
         let bvh = Bvh::build(&bounds, BuildParams::default());
         let triangles = bvh.prim_order.iter().map(|&i| triangles[i as usize]).collect();
         let ids = bvh.prim_order.iter().map(|&i| ids[i as usize]).collect();
-        Blas { bvh, triangles, ids }
+        Blas { wide: Bvh4::from_bvh2(&bvh), bvh, triangles, ids }
     }
 
     /// New vertex positions for the same triangles (given in the original order): refit.
     pub fn refit(&mut self, triangles: &[[Vec3A; 3]]) {
         let bounds: Vec<Aabb> = triangles.iter().map(triangle_bounds).collect();
         self.bvh.refit(&bounds);
+        self.wide = Bvh4::from_bvh2(&self.bvh);
         for (slot, &i) in self.bvh.prim_order.iter().enumerate() {
             self.triangles[slot] = triangles[i as usize];
         }
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.bvh.nodes.len() * 32 + self.bvh.prim_order.len() * 4 + self.triangles.len() * 48 + self.ids.len() * 8
+        self.bvh.nodes.len() * 32
+            + self.wide.nodes.len() * size_of::<Bvh4Node>()
+            + self.bvh.prim_order.len() * 4
+            + self.triangles.len() * 48
+            + self.ids.len() * 8
     }
 }
 
@@ -83,6 +91,7 @@ pub struct ExactTracer {
     blases: Vec<Blas>,
     entries: Vec<Entry>,
     tlas: Bvh,
+    tlas_wide: Bvh4,
     /// Per mesh: its object-space BLAS, when some instance of it moves or it deforms.
     mesh_blas: Vec<Option<u32>>,
 }
@@ -121,7 +130,7 @@ impl ExactTracer {
                 blases.push(Blas::build(tris, ids));
             }
         }
-        let mut tracer = ExactTracer { blases, entries: Vec::new(), tlas: Bvh::default(), mesh_blas };
+        let mut tracer = ExactTracer { blases, entries: Vec::new(), tlas: Bvh::default(), tlas_wide: Bvh4::default(), mesh_blas };
         tracer.rebuild_tlas(frame);
         tracer
     }
@@ -162,6 +171,7 @@ impl ExactTracer {
             })
             .collect();
         self.tlas = Bvh::build(&bounds, BuildParams { max_leaf_size: 1, ..Default::default() });
+        self.tlas_wide = Bvh4::from_bvh2(&self.tlas);
         // Leaf ranges index entries directly, as they index triangles in a BLAS.
         self.entries = self.tlas.prim_order.iter().map(|&i| self.entries[i as usize]).collect();
     }
@@ -175,7 +185,10 @@ impl ExactTracer {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.blases.iter().map(Blas::memory_bytes).sum::<usize>() + self.tlas.nodes.len() * 32 + self.entries.len() * 64
+        self.blases.iter().map(Blas::memory_bytes).sum::<usize>()
+            + self.tlas.nodes.len() * 32
+            + self.tlas_wide.nodes.len() * size_of::<Bvh4Node>()
+            + self.entries.len() * 64
     }
 
     /// Is anything hit at `0 < t < t_max`?
@@ -189,47 +202,59 @@ impl ExactTracer {
     }
 
     fn trace<const ANY: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        if self.tlas.nodes.is_empty() {
-            return None;
-        }
         let world = PreparedRay::new(ray);
         let mut best: Option<Hit> = None;
         let mut t_max = t_max;
-        traverse(&self.tlas, &world, t_max, |first, count| {
+        if let [entry] = &self.entries[..] {
+            // One entry (a static scene): its BLAS's own boxes cull as well as the TLAS's would.
+            self.trace_entry::<ANY>(entry, ray, &world, &mut t_max, &mut best);
+            return best;
+        }
+        if self.tlas_wide.nodes.is_empty() {
+            return None;
+        }
+        traverse::<ANY>(&self.tlas_wide, &world, t_max, |first, count| {
             for e in &self.entries[first..first + count] {
-                let blas = &self.blases[e.blas as usize];
-                let local = if e.identity {
-                    world
-                } else {
-                    let o = e.world_to_object.transform_point3(ray.origin);
-                    let d = e.world_to_object.transform_vector3(ray.dir);
-                    PreparedRay::new(&Ray::new(o, d))
-                };
-                let mut stop = false;
-                traverse(&blas.bvh, &local, t_max, |first, count| {
-                    let mut step = Step::Continue;
-                    for i in first..first + count {
-                        if let Some((t, b1, b2)) = local.intersect_triangle(&blas.triangles[i], t_max) {
-                            let id = blas.ids[i];
-                            let instance = if id.instance == FROM_ENTRY { e.instance } else { id.instance };
-                            t_max = t;
-                            best = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
-                            if ANY {
-                                stop = true;
-                                return Step::Stop;
-                            }
-                            step = Step::Shrink(t);
-                        }
-                    }
-                    step
-                });
-                if stop {
+                if self.trace_entry::<ANY>(e, ray, &world, &mut t_max, &mut best) {
                     return Step::Stop;
                 }
             }
             best.map_or(Step::Continue, |h| Step::Shrink(h.t))
         });
         best
+    }
+
+    /// Traces one TLAS entry's BLAS, updating `best` and `t_max`; true when an any-hit query
+    /// is answered.
+    #[inline(always)]
+    fn trace_entry<const ANY: bool>(&self, e: &Entry, ray: &Ray, world: &PreparedRay, t_max: &mut f32, best: &mut Option<Hit>) -> bool {
+        let blas = &self.blases[e.blas as usize];
+        let local = if e.identity {
+            *world
+        } else {
+            let o = e.world_to_object.transform_point3(ray.origin);
+            let d = e.world_to_object.transform_vector3(ray.dir);
+            PreparedRay::new(&Ray::new(o, d))
+        };
+        let mut stop = false;
+        traverse::<ANY>(&blas.wide, &local, *t_max, |first, count| {
+            let mut step = Step::Continue;
+            for i in first..first + count {
+                if let Some((t, b1, b2)) = local.intersect_triangle(&blas.triangles[i], *t_max) {
+                    let id = blas.ids[i];
+                    let instance = if id.instance == FROM_ENTRY { e.instance } else { id.instance };
+                    *t_max = t;
+                    *best = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
+                    if ANY {
+                        stop = true;
+                        return Step::Stop;
+                    }
+                    step = Step::Shrink(t);
+                }
+            }
+            step
+        });
+        stop
     }
 }
 
@@ -252,64 +277,169 @@ enum Step {
     Stop,
 }
 
-/// Front-to-back traversal; `leaf(first, count)` tests a leaf's primitive range.
+/// Traversal of a 4-wide tree; `leaf(first, count)` tests a leaf's primitive range.
+///
+/// Closest hit (`ANY == false`): front to back. Of the children a ray enters, the nearest is
+/// visited next and the others wait on the stack, farthest deepest; what was entered beyond the
+/// current `t_max` is dropped when it comes off the stack. Any hit (`t_max` never shrinks and the
+/// first hit ends the query): children in slot order, without sorting.
 #[inline]
-fn traverse(bvh: &Bvh, ray: &PreparedRay, mut t_max: f32, mut leaf: impl FnMut(usize, usize) -> Step) {
+fn traverse<const ANY: bool>(bvh: &Bvh4, ray: &PreparedRay, mut t_max: f32, mut leaf: impl FnMut(usize, usize) -> Step) {
     let nodes = &bvh.nodes;
-    let mut stack = [0u32; 64];
-    let mut sp = 0usize;
-    if box_hit(&nodes[0], ray, t_max).is_none() {
+    if nodes.is_empty() {
         return;
     }
-    let mut node = 0usize;
+    let ray4 = Ray4::new(ray);
+    let mut stack = Stack::new();
+    let mut cur = Pending { child: 0, count: 0, near: 0.0 };
     loop {
-        let n = &nodes[node];
-        if n.count > 0 {
-            match leaf(n.first_or_right as usize, n.count as usize) {
-                Step::Continue => {}
-                Step::Shrink(t) => t_max = t,
-                Step::Stop => return,
-            }
-        } else {
-            let (l, r) = (node + 1, n.first_or_right as usize);
-            let tl = box_hit(&nodes[l], ray, t_max);
-            let tr = box_hit(&nodes[r], ray, t_max);
-            match (tl, tr) {
-                (Some(a), Some(b)) => {
-                    let (near, far) = if a <= b { (l, r) } else { (r, l) };
-                    stack[sp] = far as u32;
-                    sp += 1;
-                    node = near;
-                    continue;
+        // Down through interior nodes to a leaf.
+        while cur.count == 0 {
+            let n = &nodes[cur.child as usize];
+            let (mask, near) = ray4.enter(n, t_max);
+            let near = near.to_array();
+            let pending = |slot: u32| Pending { child: n.child[slot as usize], count: n.count[slot as usize], near: near[slot as usize] };
+            // Zero, one, two, or more children entered (`rest`: all but the first).
+            let first = mask.trailing_zeros();
+            let rest = mask & mask.wrapping_sub(1);
+            match (mask, rest, rest & rest.wrapping_sub(1)) {
+                (0, _, _) => match stack.pop::<ANY>(t_max) {
+                    Some(p) => cur = p,
+                    None => return,
+                },
+                (_, 0, _) => cur = pending(first),
+                (_, _, 0) if !ANY => {
+                    let (a, b) = (pending(first), pending(rest.trailing_zeros()));
+                    let (near, far) = if a.near <= b.near { (a, b) } else { (b, a) };
+                    stack.push(far);
+                    cur = near;
                 }
-                (Some(_), None) => {
-                    node = l;
-                    continue;
+                _ if !ANY => {
+                    // Three or four: sort by entry distance, farthest first, keep the nearest.
+                    let mut sorted = [cur; WIDTH];
+                    let mut k = 0;
+                    let mut bits = mask;
+                    while bits != 0 {
+                        let p = pending(bits.trailing_zeros());
+                        bits &= bits - 1;
+                        let mut j = k;
+                        while j > 0 && sorted[j - 1].near < p.near {
+                            sorted[j] = sorted[j - 1];
+                            j -= 1;
+                        }
+                        sorted[j] = p;
+                        k += 1;
+                    }
+                    for &p in &sorted[..k - 1] {
+                        stack.push(p);
+                    }
+                    cur = sorted[k - 1];
                 }
-                (None, Some(_)) => {
-                    node = r;
-                    continue;
+                _ => {
+                    let mut bits = rest;
+                    while bits != 0 {
+                        stack.push(pending(bits.trailing_zeros()));
+                        bits &= bits - 1;
+                    }
+                    cur = pending(first);
                 }
-                (None, None) => {}
             }
         }
-        if sp == 0 {
-            return;
+        match leaf(cur.child as usize, cur.count as usize) {
+            Step::Continue => {}
+            Step::Shrink(t) => t_max = t,
+            Step::Stop => return,
         }
-        sp -= 1;
-        node = stack[sp] as usize;
+        match stack.pop::<ANY>(t_max) {
+            Some(p) => cur = p,
+            None => return,
+        }
     }
 }
 
-/// Entry distance into a node's box, or `None`. The exit distance is scaled up by 1 + 2γ₃
-/// (pbrt-v4 §6.8.2) so rounding never culls a box the ray really touches.
-#[inline(always)]
-fn box_hit(n: &crate::bvh::BvhNode, ray: &PreparedRay, t_max: f32) -> Option<f32> {
-    let t0 = (Vec3A::from(n.min) - ray.origin) * ray.inv_dir;
-    let t1 = (Vec3A::from(n.max) - ray.origin) * ray.inv_dir;
-    let near = t0.min(t1).max_element().max(0.0);
-    let far = t0.max(t1).min_element() * (1.0 + 2.0 * GAMMA3);
-    (near <= far && near < t_max).then_some(near)
+/// A child to visit: a node (`count == 0`) or a leaf's primitive range, and the distance at
+/// which the ray enters its box.
+#[derive(Clone, Copy)]
+struct Pending {
+    child: u32,
+    count: u32,
+    near: f32,
+}
+
+/// The traversal stack. Each level of a 4-wide tree leaves at most three siblings behind, and
+/// trees are at most 64 levels deep (a deeper one panics on overflow, never reads garbage).
+/// Left uninitialized: zeroing 2 KiB per ray would cost as much as tracing a small scene.
+struct Stack {
+    entries: [MaybeUninit<Pending>; 3 * 64],
+    len: usize,
+}
+
+impl Stack {
+    #[inline(always)]
+    fn new() -> Self {
+        Self { entries: [const { MaybeUninit::uninit() }; 3 * 64], len: 0 }
+    }
+
+    #[inline(always)]
+    fn push(&mut self, p: Pending) {
+        self.entries[self.len].write(p);
+        self.len += 1;
+    }
+
+    /// The most recently pushed entry that the ray enters before `t_max`, dropping the ones above
+    /// it; for any-hit traversal (`t_max` fixed, so all qualify), just the most recent.
+    #[inline(always)]
+    fn pop<const ANY: bool>(&mut self, t_max: f32) -> Option<Pending> {
+        while self.len > 0 {
+            self.len -= 1;
+            // SAFETY: `push` wrote every entry below `len`, and `len` only shrinks past read ones.
+            let p = unsafe { self.entries[self.len].assume_init() };
+            if ANY || p.near < t_max {
+                return Some(p);
+            }
+        }
+        None
+    }
+}
+
+/// A ray splatted across four lanes for [`Ray4::enter`], with, per axis, the index in
+/// [`Bvh4Node::planes`] of the boxes' plane that the ray crosses first (the minimum when the
+/// direction is positive) and of the one it crosses last.
+struct Ray4 {
+    origin: [Vec4; 3],
+    inv_dir: [Vec4; 3],
+    near_plane: [usize; 3],
+    far_plane: [usize; 3],
+}
+
+impl Ray4 {
+    #[inline(always)]
+    fn new(ray: &PreparedRay) -> Self {
+        let (o, i) = (ray.origin, ray.inv_dir);
+        let near = |axis: usize| if i[axis] >= 0.0 { axis } else { 3 + axis };
+        Self {
+            origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
+            inv_dir: [Vec4::splat(i.x), Vec4::splat(i.y), Vec4::splat(i.z)],
+            near_plane: [near(0), near(1), near(2)],
+            far_plane: [(near(0) + 3) % 6, (near(1) + 3) % 6, (near(2) + 3) % 6],
+        }
+    }
+
+    /// Which of the node's four child boxes the ray enters before `t_max` (bit mask), and where.
+    /// Slab test; the exit distance is scaled up by 1 + 2γ₃ (pbrt-v4 §6.8.2) so rounding never
+    /// culls a box the ray really touches. Empty slots (boxes at +∞) are never entered.
+    #[inline(always)]
+    fn enter(&self, n: &Bvh4Node, t_max: f32) -> (u32, Vec4) {
+        let mut near = Vec4::ZERO;
+        let mut far = Vec4::splat(f32::INFINITY);
+        for axis in 0..3 {
+            let t_near = (Vec4::from_array(n.planes[self.near_plane[axis]]) - self.origin[axis]) * self.inv_dir[axis];
+            let t_far = (Vec4::from_array(n.planes[self.far_plane[axis]]) - self.origin[axis]) * self.inv_dir[axis];
+            near = near.max(t_near);
+            far = far.min(t_far);
+        }
+        ((near.cmple(far * (1.0 + 2.0 * GAMMA3)) & near.cmplt(Vec4::splat(t_max))).bitmask(), near)
+    }
 }
 
 const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);

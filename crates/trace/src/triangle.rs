@@ -12,7 +12,9 @@ pub struct PreparedRay {
     pub dir: Vec3A,
     /// 1/dir, with zero components replaced by a tiny signed value so slab tests never see NaN.
     pub inv_dir: Vec3A,
-    k: [usize; 3],
+    /// The axis along which `dir` is largest in magnitude (the paper's `kz`).
+    kz: usize,
+    /// `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]`, where kx, ky follow kz cyclically.
     shear: Vec3A,
 }
 
@@ -30,29 +32,41 @@ impl PreparedRay {
         } else {
             2
         };
-        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        if dir[kz] < 0.0 {
-            std::mem::swap(&mut kx, &mut ky);
-        }
+        // The paper swaps kx and ky when dir[kz] < 0 to keep the triangles' winding; the test
+        // here is two-sided, and a swap only negates u, v, w, det and t_scaled exactly, so it is
+        // left out (the results are bit-for-bit the same).
+        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
         let shear = Vec3A::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
-        Self { origin, dir, inv_dir, k: [kx, ky, kz], shear }
+        Self { origin, dir, inv_dir, kz, shear }
     }
 
     /// Returns `(t, b1, b2)` for a hit with `0 < t < t_max`, where the hit point is
     /// `v0·(1−b1−b2) + v1·b1 + v2·b2`. Both faces are hit (no culling).
     #[inline]
     pub fn intersect_triangle(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-        let [kx, ky, kz] = self.k;
+        // One copy of the test per major axis, so the coordinates are picked at compile time
+        // (indexing a SIMD vector by a run-time axis goes through memory). The branch goes the
+        // same way for every triangle a ray meets.
+        match self.kz {
+            0 => self.intersect_along::<0>(v, t_max),
+            1 => self.intersect_along::<1>(v, t_max),
+            _ => self.intersect_along::<2>(v, t_max),
+        }
+    }
+
+    #[inline(always)]
+    fn intersect_along<const KZ: usize>(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+        let (kx, ky) = ((KZ + 1) % 3, (KZ + 2) % 3);
         let a = v[0] - self.origin;
         let b = v[1] - self.origin;
         let c = v[2] - self.origin;
         let (sx, sy, sz) = (self.shear.x, self.shear.y, self.shear.z);
-        let ax = a[kx] - sx * a[kz];
-        let ay = a[ky] - sy * a[kz];
-        let bx = b[kx] - sx * b[kz];
-        let by = b[ky] - sy * b[kz];
-        let cx = c[kx] - sx * c[kz];
-        let cy = c[ky] - sy * c[kz];
+        let ax = a[kx] - sx * a[KZ];
+        let ay = a[ky] - sy * a[KZ];
+        let bx = b[kx] - sx * b[KZ];
+        let by = b[ky] - sy * b[KZ];
+        let cx = c[kx] - sx * c[KZ];
+        let cy = c[ky] - sy * c[KZ];
         let mut u = cx * by - cy * bx;
         let mut vv = ax * cy - ay * cx;
         let mut w = bx * ay - by * ax;
@@ -70,9 +84,9 @@ impl PreparedRay {
         if det == 0.0 {
             return None;
         }
-        let az = sz * a[kz];
-        let bz = sz * b[kz];
-        let cz = sz * c[kz];
+        let az = sz * a[KZ];
+        let bz = sz * b[KZ];
+        let cz = sz * c[KZ];
         let t_scaled = u * az + vv * bz + w * cz;
         // Compare t = t_scaled / det against (0, t_max) without dividing, for either sign of det.
         let (t_scaled, det_abs) = if det < 0.0 { (-t_scaled, -det) } else { (t_scaled, det) };

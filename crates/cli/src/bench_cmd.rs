@@ -1,0 +1,54 @@
+//! `glimpse bench rays SCENE --kind ao|shadow|gi`.
+
+use crate::args::parse_size;
+use anyhow::Result;
+use clap::{Args, Subcommand};
+use glimpse_eval::bench::{BenchConfig, RayKind, format_table, run_bench};
+
+#[derive(Subcommand)]
+pub enum BenchCommand {
+    /// The same rays through every visibility backend: build time, Mrays/s, agreement.
+    Rays(RaysArgs),
+}
+
+#[derive(Args)]
+pub struct RaysArgs {
+    pub scene: String,
+    /// ao, shadow or gi.
+    #[arg(long, default_value = "ao")]
+    pub kind: String,
+    #[arg(long, default_value_t = 1_000_000)]
+    pub rays: usize,
+    /// GBuffer size the rays start from.
+    #[arg(long, default_value = "256x256", value_parser = parse_size)]
+    pub size: (u32, u32),
+    /// AO ray length (default: infinite, as ROMA's AO).
+    #[arg(long, default_value_t = f32::INFINITY)]
+    pub radius: f32,
+    #[arg(long, default_value_t = 0)]
+    pub seed: u64,
+    /// Only these backends besides `exact` (comma-separated).
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+pub fn run(cmd: BenchCommand) -> Result<()> {
+    let BenchCommand::Rays(a) = cmd;
+    if a.rays == 0 || a.rays > 100_000_000 {
+        anyhow::bail!("--rays {}: must be between 1 and 100000000", a.rays);
+    }
+    if a.radius.is_nan() || a.radius <= 0.0 {
+        anyhow::bail!("--radius {}: must be positive", a.radius);
+    }
+    let cfg = BenchConfig { scene_spec: a.scene, kind: RayKind::parse(&a.kind)?, rays: a.rays, width: a.size.0, height: a.size.1, radius: a.radius, seed: a.seed, only: a.only };
+    let r = run_bench(&cfg)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&r)?);
+    } else {
+        print!("{}", format_table(&r));
+    }
+    Ok(())
+}

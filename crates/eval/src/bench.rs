@@ -1,0 +1,162 @@
+//! `glimpse bench rays`: one ray set from the GBuffer (AO rays, shadow rays to the lights, or
+//! diffuse bounce rays) sent through every registered [`Visibility`] backend. Reports build
+//! time, throughput and the fraction of rays on which each backend gives the exact tracer's
+//! answer; the exact tracer is always the first row, measured in the same run.
+
+use anyhow::{Result, bail};
+use glimpse_core::Ray;
+use glimpse_render::Stopwatch;
+use glimpse_scene::SceneFrame;
+use glimpse_trace::{ExactTracer, GBuffer, Visibility, rays};
+use rayon::prelude::*;
+use serde::Serialize;
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum RayKind {
+    Ao,
+    Shadow,
+    Gi,
+}
+
+impl RayKind {
+    pub fn parse(s: &str) -> Result<Self> {
+        Ok(match s {
+            "ao" => RayKind::Ao,
+            "shadow" => RayKind::Shadow,
+            "gi" => RayKind::Gi,
+            _ => bail!("--kind {s}: expected ao, shadow or gi"),
+        })
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            RayKind::Ao => "ao",
+            RayKind::Shadow => "shadow",
+            RayKind::Gi => "gi",
+        }
+    }
+}
+
+/// A visibility structure that can be built for a frame and benchmarked.
+pub struct Backend {
+    pub name: &'static str,
+    pub build: fn(&SceneFrame) -> Result<Box<dyn Visibility>>,
+}
+
+/// Every backend, the exact tracer first.
+pub fn backends() -> Vec<Backend> {
+    vec![
+        Backend { name: "exact", build: |frame| Ok(Box::new(ExactTracer::build(frame))) },
+        // ROMA at the paper's defaults (128², 4²), snapped any-hit; frame 0, seed 0.
+        Backend { name: "roma", build: |frame| Ok(Box::new(glimpse_roma::Roma::build(frame, &glimpse_roma::RomaParams::default(), 0, 0))) },
+        // The distance field from the same BOM (128³, 3 mips, ≤ 64 sphere-tracing steps).
+        Backend { name: "df", build: |frame| Ok(Box::new(glimpse_baselines::DfScene::build(frame, &glimpse_baselines::DfParams::default(), 0, 0))) },
+    ]
+}
+
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    pub scene_spec: String,
+    pub kind: RayKind,
+    pub rays: usize,
+    /// GBuffer resolution the rays start from.
+    pub width: u32,
+    pub height: u32,
+    /// AO ray length (∞ = to the scene's end, as ROMA's AO).
+    pub radius: f32,
+    pub seed: u64,
+    /// Backends to run besides `exact` (empty: all).
+    pub only: Vec<String>,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BackendResult {
+    pub name: String,
+    pub build_ms: f64,
+    pub trace_ms: f64,
+    pub mrays_per_s: f64,
+    /// Fraction of rays with the exact tracer's answer.
+    pub agreement: f64,
+    /// Throughput relative to the exact tracer in this run.
+    pub speedup_vs_exact: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchResults {
+    pub scene: String,
+    pub kind: String,
+    pub rays: usize,
+    pub threads: usize,
+    pub occluded_fraction: f64,
+    pub backends: Vec<BackendResult>,
+}
+
+/// Generates the benchmark's rays from the GBuffer of `frame`.
+pub fn generate_rays(frame: &SceneFrame, gbuffer: &GBuffer, kind: RayKind, count: usize, radius: f32, seed: u64) -> Vec<(Ray, f32)> {
+    let hits = (0..gbuffer.len()).filter(|&i| gbuffer.is_hit(i)).count().max(1);
+    let per_pixel = count.div_ceil(hits).max(1) as u32;
+    let mut rays = match kind {
+        RayKind::Ao => rays::ao_rays_from(gbuffer, per_pixel, radius, seed),
+        RayKind::Shadow => rays::shadow_rays_from(frame, gbuffer, per_pixel, seed),
+        RayKind::Gi => rays::bounce_rays_from(gbuffer, per_pixel, seed),
+    };
+    rays.truncate(count);
+    rays
+}
+
+pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
+    let scene = glimpse_scene::load(&cfg.scene_spec)?;
+    let frame = scene.at(0.0);
+    let exact = ExactTracer::build(&frame);
+    let camera = scene.camera_or_default(cfg.width as f32 / cfg.height as f32);
+    let gbuffer = GBuffer::new(&frame, &exact, &camera, cfg.width, cfg.height);
+    let rays = generate_rays(&frame, &gbuffer, cfg.kind, cfg.rays, cfg.radius, cfg.seed);
+    if rays.is_empty() {
+        bail!("{}: no {} rays: the camera sees no geometry{}", cfg.scene_spec, cfg.kind.name(), if cfg.kind == RayKind::Shadow { " or the scene has no lights" } else { "" });
+    }
+    let mut results: Vec<BackendResult> = Vec::new();
+    let mut truth: Vec<bool> = Vec::new();
+    for backend in backends() {
+        if backend.name != "exact" && !cfg.only.is_empty() && !cfg.only.iter().any(|o| o == backend.name) {
+            continue;
+        }
+        let sw = Stopwatch::start();
+        let vis = (backend.build)(&frame)?;
+        let build_ms = sw.ms();
+        // Warm up caches and threads on a slice, then time the whole set.
+        let _: usize = rays[..rays.len().min(10_000)].par_iter().filter(|(r, t)| vis.occluded(r, *t)).count();
+        let sw = Stopwatch::start();
+        let answers: Vec<bool> = rays.par_iter().map(|(r, t)| vis.occluded(r, *t)).collect();
+        let trace_ms = sw.ms();
+        if truth.is_empty() {
+            truth = answers.clone();
+        }
+        let agree = answers.iter().zip(&truth).filter(|(a, b)| a == b).count() as f64 / rays.len() as f64;
+        let mrays_per_s = rays.len() as f64 / (trace_ms * 1e3);
+        let speedup_vs_exact = results.first().map_or(1.0, |e| mrays_per_s / e.mrays_per_s);
+        results.push(BackendResult { name: backend.name.to_owned(), build_ms, trace_ms, mrays_per_s, agreement: agree, speedup_vs_exact });
+    }
+    let occluded_fraction = truth.iter().filter(|&&o| o).count() as f64 / truth.len() as f64;
+    Ok(BenchResults { scene: cfg.scene_spec.clone(), kind: cfg.kind.name().to_owned(), rays: rays.len(), threads: rayon::current_num_threads(), occluded_fraction, backends: results })
+}
+
+pub fn format_table(r: &BenchResults) -> String {
+    let mut s = format!(
+        "bench rays: {}, {} {} rays, {} threads, {:.1}% occluded\n{:<12} {:>10} {:>10} {:>10} {:>10} {:>10}\n",
+        r.scene,
+        r.rays,
+        r.kind,
+        r.threads,
+        r.occluded_fraction * 100.0,
+        "backend",
+        "build ms",
+        "trace ms",
+        "Mrays/s",
+        "vs exact",
+        "agreement"
+    );
+    for b in &r.backends {
+        s += &format!("{:<12} {:>10.1} {:>10.1} {:>10.2} {:>9.2}x {:>9.4}%\n", b.name, b.build_ms, b.trace_ms, b.mrays_per_s, b.speedup_vs_exact, b.agreement * 100.0);
+    }
+    s
+}

@@ -1,0 +1,67 @@
+//! Reference images cached on disk, keyed by a hash of everything that determines them: the
+//! scene (its name, or its file's path, size and modification time), the technique and its
+//! effective parameters, the image size, samples, seed, time and glimpse's version. A rerun of
+//! `glimpse eval` then skips the slow references.
+
+use glimpse_core::{Image, ToneMap};
+use std::hash::{DefaultHasher, Hash, Hasher};
+use std::path::PathBuf;
+
+#[derive(Clone, Debug)]
+pub struct Cache {
+    pub dir: Option<PathBuf>,
+}
+
+impl Cache {
+    /// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`.
+    pub fn default_dir() -> Option<PathBuf> {
+        if let Some(d) = std::env::var_os("GLIMPSE_CACHE") {
+            return Some(PathBuf::from(d));
+        }
+        if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+            return Some(PathBuf::from(d).join("glimpse"));
+        }
+        std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/glimpse"))
+    }
+
+    pub fn disabled() -> Self {
+        Self { dir: None }
+    }
+
+    pub fn key(parts: &[&str], scene_spec: &str) -> String {
+        let mut h = DefaultHasher::new();
+        env!("CARGO_PKG_VERSION").hash(&mut h);
+        parts.hash(&mut h);
+        scene_spec.hash(&mut h);
+        if let Ok(meta) = std::fs::metadata(scene_spec) {
+            meta.len().hash(&mut h);
+            if let Ok(t) = meta.modified() {
+                t.hash(&mut h);
+            }
+        }
+        format!("{:016x}", h.finish())
+    }
+
+    fn path(&self, key: &str) -> Option<PathBuf> {
+        self.dir.as_ref().map(|d| d.join(format!("ref-{key}.exr")))
+    }
+
+    pub fn load(&self, key: &str) -> Option<Image> {
+        let p = self.path(key)?;
+        Image::read(&p).ok()
+    }
+
+    /// Best effort: a cache that cannot be written only costs time.
+    pub fn store(&self, key: &str, image: &Image) {
+        if let Some(p) = self.path(key) {
+            if let Some(dir) = p.parent() {
+                let _ = std::fs::create_dir_all(dir);
+            }
+            let tmp = p.with_extension("tmp.exr");
+            if image.write(&tmp, ToneMap::default()).is_ok() {
+                let _ = std::fs::rename(&tmp, &p);
+            }
+        }
+    }
+}
+

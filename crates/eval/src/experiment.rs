@@ -1,0 +1,216 @@
+//! `glimpse eval`: each technique beside its reference on the same scene, GBuffer and seed.
+//!
+//! The reference of an approximate technique is the exact technique its registry entry names;
+//! an exact technique's reference is itself at `ref_spp` samples (its converged answer). The
+//! reference gets the same `--set` values, reading only those it knows (so `radius=` reaches both
+//! `ao-roma` and `ao-exact`). References are cached on disk (see [`crate::cache`]).
+
+use crate::cache::Cache;
+use anyhow::{Context, Result, bail};
+use glimpse_core::{Image, ToneMap};
+use glimpse_render::metrics::{ErrorMapKind, Metrics, error_map};
+use glimpse_render::{FrameContext, Params, Registry, Settings, Stats, Stopwatch, Technique};
+use glimpse_scene::Scene;
+use glimpse_trace::GBuffer;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::path::PathBuf;
+
+#[derive(Clone, Debug)]
+pub struct EvalConfig {
+    pub scene_spec: String,
+    /// Technique ids; empty means every registered technique.
+    pub techniques: Vec<String>,
+    pub width: u32,
+    pub height: u32,
+    pub spp: u32,
+    pub ref_spp: u32,
+    pub seed: u64,
+    pub time: f32,
+    /// `key=value` technique parameters.
+    pub params: Vec<String>,
+    pub out_dir: PathBuf,
+    pub cache: Cache,
+    /// Also run each technique at fewer samples for the error-versus-time plot.
+    pub sweep: bool,
+    pub exposure: f32,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct SweepPoint {
+    pub spp: u32,
+    pub ms: f64,
+    pub rmse: f64,
+    pub flip: f64,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct Run {
+    pub technique: String,
+    pub reference: String,
+    /// prepare, render, total and every stage, in milliseconds.
+    pub ms: BTreeMap<String, f64>,
+    pub memory_bytes: usize,
+    pub rays: u64,
+    pub metrics: BTreeMap<String, f64>,
+    pub params: BTreeMap<String, String>,
+    pub images: BTreeMap<String, String>,
+    pub sweep: Vec<SweepPoint>,
+    pub reference_cached: bool,
+}
+
+#[derive(Clone, Debug, Serialize)]
+pub struct EvalResults {
+    pub scene: String,
+    pub size: [u32; 2],
+    pub spp: u32,
+    pub ref_spp: u32,
+    pub seed: u64,
+    pub time: f32,
+    pub gbuffer_ms: f64,
+    pub peak_rss_bytes: Option<u64>,
+    pub runs: Vec<Run>,
+}
+
+/// What one `prepare` + `render` produced.
+pub struct Rendered {
+    pub image: Image,
+    pub prepare: Stats,
+    pub render: Stats,
+}
+
+pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &GBuffer) -> Result<Rendered> {
+    let prepare = technique.prepare(ctx)?;
+    let mut image = ctx.image();
+    let render = technique.render(ctx, gbuffer, &mut image)?;
+    Ok(Rendered { image, prepare, render })
+}
+
+/// File-name-safe form of a technique id.
+fn slug(id: &str) -> String {
+    id.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect()
+}
+
+pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<EvalResults> {
+    let scene: Scene = glimpse_scene::load(&cfg.scene_spec)?;
+    for w in &scene.warnings {
+        log(&format!("warning: {w}"));
+    }
+    let ids: Vec<String> = if cfg.techniques.is_empty() { registry.all().iter().map(|t| t.id.to_owned()).collect() } else { cfg.techniques.clone() };
+    for id in &ids {
+        registry.get(id)?;
+    }
+    // Check the parameters once against every technique named: a key none of them reads is a typo.
+    let all_params = Params::parse(&cfg.params)?;
+    let settings = Settings { spp: cfg.spp, seed: cfg.seed };
+    for id in &ids {
+        let _ = (registry.get(id)?.create)(&scene, &settings, &all_params)?;
+    }
+    let unknown = all_params.finish(&ids.join(", "));
+    if let Err(e) = unknown {
+        bail!(e);
+    }
+    std::fs::create_dir_all(&cfg.out_dir).with_context(|| format!("{}: cannot create the output directory", cfg.out_dir.display()))?;
+
+    let sw = Stopwatch::start();
+    let ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
+    let gbuffer = ctx.gbuffer();
+    let gbuffer_ms = sw.ms();
+    let tone = ToneMap { exposure: cfg.exposure };
+    let write = |name: &str, img: &Image| -> Result<String> {
+        let file = format!("{name}.png");
+        img.write(&cfg.out_dir.join(&file), tone)?;
+        img.write(&cfg.out_dir.join(format!("{name}.exr")), tone)?;
+        Ok(file)
+    };
+
+    let mut references: BTreeMap<String, (Image, bool)> = BTreeMap::new();
+    let mut runs = Vec::new();
+    for id in &ids {
+        let info = registry.get(id)?;
+        let ref_id = info.reference.unwrap_or(info.id).to_owned();
+        if !references.contains_key(&ref_id) {
+            let ref_settings = Settings { spp: cfg.ref_spp, seed: cfg.seed.wrapping_add(0x5eed) };
+            let ref_params = Params::parse(&cfg.params)?;
+            let mut reference = (registry.get(&ref_id)?.create)(&scene, &ref_settings, &ref_params)?;
+            let effective = format!("{:?}", ref_params.effective());
+            let key = Cache::key(
+                &[&ref_id, &effective, &format!("{}x{}", cfg.width, cfg.height), &cfg.ref_spp.to_string(), &ref_settings.seed.to_string(), &cfg.time.to_string()],
+                &cfg.scene_spec,
+            );
+            let (image, cached) = match cfg.cache.load(&key) {
+                Some(img) if img.width == cfg.width && img.height == cfg.height => (img, true),
+                _ => {
+                    log(&format!("rendering reference {ref_id} at {} spp", cfg.ref_spp));
+                    let r = render_once(reference.as_mut(), &ctx, &gbuffer)?;
+                    cfg.cache.store(&key, &r.image);
+                    (r.image, false)
+                }
+            };
+            write(&format!("ref-{}", slug(&ref_id)), &image)?;
+            references.insert(ref_id.clone(), (image, cached));
+        }
+        let (reference, reference_cached) = &references[&ref_id];
+
+        log(&format!("running {id}"));
+        let params = Params::parse(&cfg.params)?;
+        let mut technique = (info.create)(&scene, &settings, &params)?;
+        let r = render_once(technique.as_mut(), &ctx, &gbuffer)?;
+        let metrics = Metrics::compute(&r.image, reference)?;
+        let mut ms = BTreeMap::new();
+        ms.insert("prepare".to_owned(), r.prepare.total_ms());
+        ms.insert("render".to_owned(), r.render.total_ms());
+        ms.insert("total".to_owned(), r.prepare.total_ms() + r.render.total_ms());
+        for (stage, t) in r.prepare.stages.iter().chain(&r.render.stages) {
+            *ms.entry(stage.clone()).or_insert(0.0) += t;
+        }
+        let mut images = BTreeMap::new();
+        images.insert("image".to_owned(), write(&slug(id), &r.image)?);
+        images.insert("reference".to_owned(), format!("ref-{}.png", slug(&ref_id)));
+        let map = error_map(&r.image, reference, ErrorMapKind::FlipHdr)?;
+        let err_file = format!("{}-error.png", slug(id));
+        map.write(&cfg.out_dir.join(&err_file), ToneMap::default())?;
+        images.insert("error".to_owned(), err_file);
+
+        let mut sweep = Vec::new();
+        if cfg.sweep {
+            let mut spps: Vec<u32> = [cfg.spp / 8, cfg.spp / 4, cfg.spp / 2].into_iter().filter(|&s| s >= 1).collect();
+            spps.dedup();
+            for spp in spps {
+                let mut t = (info.create)(&scene, &Settings { spp, seed: cfg.seed }, &Params::parse(&cfg.params)?)?;
+                let s = render_once(t.as_mut(), &ctx, &gbuffer)?;
+                let m = Metrics::compute(&s.image, reference)?;
+                sweep.push(SweepPoint { spp, ms: s.prepare.total_ms() + s.render.total_ms(), rmse: m.rmse, flip: m.flip });
+            }
+            sweep.push(SweepPoint { spp: cfg.spp, ms: ms["total"], rmse: metrics.rmse, flip: metrics.flip });
+        }
+        log(&format!("  {id}: total {:.1} ms, RMSE {:.5}, FLIP {:.5}", ms["total"], metrics.rmse, metrics.flip));
+        runs.push(Run {
+            technique: id.clone(),
+            reference: ref_id.clone(),
+            ms,
+            memory_bytes: r.prepare.memory_bytes.max(r.render.memory_bytes),
+            rays: r.prepare.rays + r.render.rays,
+            metrics: metrics.to_pairs().into_iter().map(|(k, v)| (k.to_owned(), v)).collect(),
+            params: params.effective(),
+            images,
+            sweep,
+            reference_cached: *reference_cached,
+        });
+    }
+
+    let results = EvalResults {
+        scene: cfg.scene_spec.clone(),
+        size: [cfg.width, cfg.height],
+        spp: cfg.spp,
+        ref_spp: cfg.ref_spp,
+        seed: cfg.seed,
+        time: cfg.time,
+        gbuffer_ms,
+        peak_rss_bytes: crate::peak_rss_bytes(),
+        runs,
+    };
+    std::fs::write(cfg.out_dir.join("results.json"), serde_json::to_string_pretty(&results)?).context("writing results.json")?;
+    crate::report::write_html(&results, &cfg.out_dir.join("report.html"))?;
+    Ok(results)
+}

@@ -1,0 +1,235 @@
+//! `pt`: a unidirectional path tracer, the ground truth for full global illumination.
+//!
+//! The primary hit is the GBuffer's (pixel centre, no anti-aliasing: every technique shades the
+//! same GBuffer). From there each of the `spp` paths bounces with the [`crate::bsdf`] BRDF
+//! (glTF metallic-roughness: Lambert + GGX, VNDF sampling; `brdf=lambert` treats every material
+//! as Lambertian with its base colour, to compare with the Lambertian references):
+//! - area lights and the environment by next-event estimation *and* BRDF sampling, combined
+//!   with the power heuristic (one light sample of each kind per vertex);
+//! - punctual lights by next-event estimation only (they cannot be hit): every light at every
+//!   vertex when the scene has at most [`ALL_PUNCTUAL`] of them, else one chosen uniformly;
+//! - `max_depth` (default 8) counts scattering vertices: 1 = direct light only, 2 = direct plus
+//!   one diffuse/glossy bounce (what `gi-exact` computes), light found by the BRDF sample of the
+//!   last vertex included;
+//! - Russian roulette from the fourth vertex on, continuing with probability
+//!   min(1, max(throughput)) and dividing by it.
+//!
+//! Nothing is clamped (the estimator is unbiased); a path whose contribution is NaN or infinite is
+//! dropped and counted ([`PathTracer::nonfinite_paths`]) so tests can assert there are none.
+
+use crate::bsdf::{BrdfModel, Bsdf};
+use crate::direct::{self, EmitterIndex};
+use crate::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
+use glimpse_core::{Image, Ray, Rng, Vec3, is_finite3};
+use glimpse_scene::Scene;
+use glimpse_trace::{GBuffer, SurfacePoint};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+/// With at most this many punctual lights, every one is sampled at every vertex.
+pub const ALL_PUNCTUAL: usize = 8;
+/// Russian roulette starts after this many vertices.
+pub const RR_DEPTH: u32 = 3;
+
+pub struct PathTracer {
+    pub max_depth: u32,
+    pub brdf: BrdfModel,
+    pub settings: Settings,
+    emitters: EmitterIndex,
+    nonfinite: u64,
+}
+
+/// The surface a path is at.
+struct Vertex {
+    position: Vec3,
+    normal: Vec3,
+    shading_normal: Vec3,
+    base: Vec3,
+    material: u32,
+}
+
+impl PathTracer {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "pt",
+            family: "global illumination",
+            reference: None,
+            description: "unidirectional path tracer (NEE + MIS, GGX metallic-roughness, max_depth=8, brdf=pbr|lambert)",
+            create: |_: &Scene, settings, params| Ok(Box::new(PathTracer::new(settings, params)?)),
+        }
+    }
+
+    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        direct::require_spp(settings)?;
+        let max_depth = params.u32("max_depth", 8, 1, 1024)?;
+        let brdf = match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {
+            "lambert" => BrdfModel::Lambert,
+            _ => BrdfModel::Pbr,
+        };
+        Ok(Self { max_depth, brdf, settings: *settings, emitters: EmitterIndex::default(), nonfinite: 0 })
+    }
+
+    /// Paths of the last `render` whose contribution was NaN or infinite (dropped).
+    pub fn nonfinite_paths(&self) -> u64 {
+        self.nonfinite
+    }
+
+    /// One path's radiance through pixel `i` (excluding the primary hit's emission) and the
+    /// rays it traced.
+    fn path(&self, ctx: &FrameContext, g: &GBuffer, i: usize, rng: &mut Rng) -> (Vec3, u64) {
+        let frame = &ctx.frame;
+        let scene = frame.scene;
+        let env = scene.environment.as_ref();
+        let lights = &frame.lights;
+        let mut v = Vertex {
+            position: g.position[i],
+            normal: g.normal[i],
+            shading_normal: g.shading_normal[i],
+            base: g.albedo[i],
+            material: g.material[i],
+        };
+        let mut wo = -g.view_dir[i];
+        let mut beta = Vec3::ONE;
+        let mut l = Vec3::ZERO;
+        let mut rays = 0u64;
+        for depth in 1..=self.max_depth {
+            let mat = &scene.materials[v.material as usize];
+            let Some(bsdf) = Bsdf::new(self.brdf, v.base, mat.metallic, mat.roughness, v.shading_normal, v.normal, wo) else {
+                break;
+            };
+            // Next-event estimation: area lights (MIS).
+            let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
+            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
+                let cos = bsdf.cos(ls.wi);
+                let f = bsdf.eval(ls.wi);
+                if cos > 0.0 && f.max_element() > 0.0 {
+                    rays += 1;
+                    if !ctx.tracer.occluded(&ls.shadow, ls.t_max) {
+                        let w = direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi));
+                        l += beta * f * ls.radiance * (cos * w / ls.pdf);
+                    }
+                }
+            }
+            // The environment (MIS).
+            let u_env = rng.next_2d();
+            if let Some(env) = env {
+                let (d, le, pdf) = env.sample(u_env);
+                let cos = bsdf.cos(d);
+                if pdf > 0.0 && cos > 0.0 {
+                    let f = bsdf.eval(d);
+                    if f.max_element() > 0.0 {
+                        rays += 1;
+                        if !ctx.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
+                            let w = direct::power_heuristic(pdf, bsdf.pdf(d));
+                            l += beta * f * le * (cos * w / pdf);
+                        }
+                    }
+                }
+            }
+            // Punctual lights (NEE only).
+            let u_light = rng.next_f32();
+            let (chosen, scale) = if lights.len() <= ALL_PUNCTUAL {
+                (&lights[..], 1.0)
+            } else {
+                let k = ((u_light * lights.len() as f32) as usize).min(lights.len() - 1);
+                (&lights[k..k + 1], lights.len() as f32)
+            };
+            for light in chosen {
+                let ps = direct::punctual(light, v.position, v.normal);
+                let cos = bsdf.cos(ps.wi);
+                if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                    continue;
+                }
+                let f = bsdf.eval(ps.wi);
+                if f.max_element() <= 0.0 {
+                    continue;
+                }
+                rays += 1;
+                if !ctx.tracer.occluded(&ps.shadow, ps.t_max) {
+                    l += beta * f * ps.irradiance * (cos * scale);
+                }
+            }
+            // Continue the path by sampling the BRDF.
+            let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
+            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
+                break;
+            };
+            beta *= s.f * (s.cos / s.pdf);
+            let ray = Ray::spawn(v.position, v.normal, s.wi);
+            rays += 1;
+            let Some(hit) = ctx.tracer.closest_hit(&ray, f32::INFINITY) else {
+                if let Some(env) = env {
+                    let w = direct::power_heuristic(s.pdf, env.pdf(s.wi));
+                    l += beta * env.radiance(s.wi) * w;
+                }
+                break;
+            };
+            let sp = SurfacePoint::from_hit(frame, &ray, &hit);
+            let le = sp.emission(frame);
+            if le.max_element() > 0.0 {
+                let cos_light = sp.normal.dot(-s.wi).abs();
+                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light);
+                l += beta * le * direct::power_heuristic(s.pdf, p_light);
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            if depth >= RR_DEPTH {
+                let q = beta.max_element().min(1.0);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            wo = -s.wi;
+            v = Vertex {
+                position: sp.position,
+                normal: sp.normal,
+                shading_normal: sp.shading_normal,
+                base: sp.base_color(frame),
+                material: sp.material,
+            };
+        }
+        (l, rays)
+    }
+}
+
+impl Technique for PathTracer {
+    fn id(&self) -> &'static str {
+        "pt"
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        let mut stats = Stats::default();
+        self.emitters = stats.time("emitter index", || EmitterIndex::new(&ctx.frame));
+        stats.memory_bytes = self.emitters.memory_bytes();
+        Ok(stats)
+    }
+
+    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
+        if self.emitters.len() != ctx.frame.emissive.len() {
+            // Not prepared for this frame: MIS needs the index of exactly these emitters.
+            self.emitters = EmitterIndex::new(&ctx.frame);
+        }
+        let mut stats = Stats { memory_bytes: ctx.tracer.memory_bytes() + self.emitters.memory_bytes(), ..Default::default() };
+        let nonfinite = AtomicU64::new(0);
+        let spp = self.settings.spp;
+        let this = &*self;
+        stats.rays = stats.time("trace", || {
+            direct::shade_pixels(ctx, gbuffer, this.settings.seed, out, |i, rng| {
+                let (mut sum, mut rays) = (Vec3::ZERO, 0);
+                for _ in 0..spp {
+                    let (l, r) = this.path(ctx, gbuffer, i, rng);
+                    rays += r;
+                    if is_finite3(l) {
+                        sum += l;
+                    } else {
+                        nonfinite.fetch_add(1, Ordering::Relaxed);
+                    }
+                }
+                (sum / spp as f32, rays)
+            })
+        })?;
+        self.nonfinite = nonfinite.into_inner();
+        Ok(stats)
+    }
+}

@@ -1,0 +1,344 @@
+//! glimpse-roma: the ray-aligned occupancy map array of Zeng, Xu, Wang, Wu and Yan, "Ray-aligned
+//! Occupancy Map Array for Fast Approximate Ray Tracing" (EGSR 2023, CGF 42(4)), read through
+//! our spec `shared/specs/roma.md` (errata marked there).
+//!
+//! One frame of ROMA, in the paper's order (one file per stage):
+//! 1. [`occupancy`]: the base occupancy map (BOM), three axis passes united, jittered per frame.
+//! 2. [`directions`]: `n×n` stratified candidate directions on a hemisphere (concentric map),
+//!    re-drawn per frame, and the stratum lookup that "snaps" a ray.
+//! 3. [`generate`]: Alg. 1, the BOM rotated into one occupancy map per candidate direction.
+//! 4. [`trace`]: Alg. 2 (snapped any-hit and closest-hit, ±z) and the un-snapped DDA.
+//! 5. [`technique`]: `ao-roma`, `gi-roma`, `soft-roma`, with [`accumulate`] over frames.
+//!
+//! [`Roma`] is one frame's structure at resolution 32, 64 or 128 (words `u32`/`u64`/`u128`,
+//! chosen at run time), and implements [`Visibility`] and [`ClosestHit`] for arbitrary rays by
+//! snapping them (see [`Roma`]'s notes on what that means for agreement with exact rays).
+
+pub mod accumulate;
+pub mod directions;
+pub mod generate;
+pub mod grid;
+pub mod occupancy;
+pub mod technique;
+pub mod trace;
+pub mod word;
+
+pub use accumulate::Accumulator;
+pub use directions::CandidateSet;
+pub use grid::Grid;
+pub use occupancy::{OccupancyMap, Voxelization};
+pub use word::Word;
+
+use glimpse_core::{Aabb, Frame, Ray, Rng, Vec3};
+use glimpse_render::{ParamError, Params, Stopwatch, TechniqueInfo};
+use glimpse_scene::SceneFrame;
+use glimpse_trace::{ClosestHit, Hit, Visibility};
+use trace::MapSegment;
+
+/// The techniques of this crate, for the registry.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![technique::AoRoma::info(), technique::GiRoma::info(), technique::SoftRoma::info()]
+}
+
+/// ROMA's build and tracing settings. `Default` is the paper's AO/GI setting (§7.1, Fig. 9):
+/// positional resolution 128², angular resolution 4², 1.5-cell origin offset, ≤ 8 DDA steps.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RomaParams {
+    /// Positional resolution R (cells per axis = bits per texel): 32, 64 or 128.
+    pub resolution: u32,
+    /// Angular resolution n: n×n candidate directions (4 for AO/GI, 8 for soft shadows).
+    pub n: u32,
+    pub voxelization: Voxelization,
+    /// Per-frame BOM jitter and re-drawn candidates (false: no jitter, stratum centres).
+    pub jitter: bool,
+    /// Ray-origin offset along the surface normal, in cells (paper §6: 1.5).
+    pub origin_offset_cells: f32,
+    /// Texel columns an un-snapped ray may visit (paper §4.2: 8 for soft shadows).
+    pub dda_steps: u32,
+}
+
+impl Default for RomaParams {
+    fn default() -> Self {
+        Self { resolution: 128, n: 4, voxelization: Voxelization::Conservative, jitter: true, origin_offset_cells: 1.5, dda_steps: 8 }
+    }
+}
+
+impl RomaParams {
+    /// Reads `resolution`, `n`, `voxelization`, `jitter`, `offset` and (when `with_dda`)
+    /// `dda_steps`, with `self` as the defaults.
+    pub fn read(self, params: &Params, with_dda: bool) -> Result<Self, ParamError> {
+        let resolution = params.u32("resolution", self.resolution, 32, 128)?;
+        if ![32, 64, 128].contains(&resolution) {
+            return Err(ParamError::Invalid { key: "resolution".into(), value: resolution.to_string(), message: "must be 32, 64 or 128".into() });
+        }
+        let voxelization = match params.choice("voxelization", "conservative", &["conservative", "sampled"])?.as_str() {
+            "sampled" => Voxelization::PAPER,
+            _ => Voxelization::Conservative,
+        };
+        Ok(Self {
+            resolution,
+            n: params.u32("n", self.n, 1, 32)?,
+            voxelization,
+            jitter: params.bool("jitter", self.jitter)?,
+            origin_offset_cells: params.f32("offset", self.origin_offset_cells, 0.0, 16.0)?,
+            dda_steps: if with_dda { params.u32("dda_steps", self.dda_steps, 1, 1024)? } else { self.dda_steps },
+        })
+    }
+}
+
+/// Wall time of one build, by stage.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct BuildTimings {
+    pub voxelize_ms: f64,
+    pub generate_ms: f64,
+}
+
+/// One frame's ROMA at one word width.
+#[derive(Clone, Debug)]
+pub struct RomaMaps<W: Word> {
+    pub grid: Grid,
+    pub candidates: CandidateSet,
+    /// Axes of OM k (depth along candidate k).
+    pub axes: Vec<Frame>,
+    pub bom: OccupancyMap<W>,
+    /// The OMs, layer-major: word `k·R² + y·R + x`.
+    pub maps: Vec<W>,
+    pub origin_offset_cells: f32,
+    pub timings: BuildTimings,
+}
+
+impl<W: Word> RomaMaps<W> {
+    /// Generates the array from a BOM and candidates (Alg. 1 for every OM).
+    pub fn generate(grid: Grid, bom: OccupancyMap<W>, candidates: CandidateSet, origin_offset_cells: f32) -> Self {
+        let axes: Vec<Frame> = candidates.dirs.iter().map(|&d| grid::om_axes(d)).collect();
+        let maps = generate::generate_all(&bom, &axes);
+        Self { grid, candidates, axes, bom, maps, origin_offset_cells, timings: BuildTimings::default() }
+    }
+
+    #[inline]
+    pub fn word(&self, k: usize, x: u32, y: u32) -> W {
+        let r = W::BITS as usize;
+        self.maps[k * r * r + y as usize * r + x as usize]
+    }
+
+    /// OM k as a stand-alone map (copies).
+    pub fn map(&self, k: usize) -> OccupancyMap<W> {
+        let r2 = (W::BITS * W::BITS) as usize;
+        OccupancyMap { words: self.maps[k * r2..(k + 1) * r2].to_vec() }
+    }
+
+    /// Alg. 2 `Trace` of the snapped ray from `origin` along `sign · d_k` over world distance
+    /// `t_max` (∞: to the end of the volume): the range word `U_result`, the range's far slice,
+    /// the direction along the map's z and the origin's depth in cells.
+    #[inline]
+    fn trace_column(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<(W, u32, bool, f32)> {
+        let q = self.grid.to_map_cells(&self.axes[k], origin);
+        let r = W::BITS as f32;
+        if !(q.x >= 0.0 && q.y >= 0.0 && q.x < r && q.y < r) {
+            return None;
+        }
+        let plus = sign > 0.0;
+        let (t_start, t_end) = trace::slice_range(q.z, plus, t_max / self.grid.cell_size_world, W::BITS)?;
+        let u = self.word(k, q.x as u32, q.y as u32);
+        Some((trace::range_bits(u, t_start, t_end), t_start.max(t_end), plus, q.z))
+    }
+
+    /// Snapped any-hit along `sign · d_k` (no offset applied here).
+    #[inline]
+    pub fn any_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> bool {
+        self.trace_column(k, sign, origin, t_max).is_some_and(|(ur, ..)| trace::any_hit(ur))
+    }
+
+    /// Snapped closest hit along `sign · d_k`: world distance from `origin` (≥ 0) to Alg. 2's
+    /// hit depth (centre of the first occupied slice towards +z, its entry face towards −z).
+    #[inline]
+    pub fn closest_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<f32> {
+        let (ur, hi, plus, z) = self.trace_column(k, sign, origin, t_max)?;
+        let z_hit = trace::closest_hit_slices(ur, hi, plus)?;
+        let cells = if plus { z_hit - z } else { z - z_hit };
+        Some(cells.max(0.0) * self.grid.cell_size_world)
+    }
+
+    /// Un-snapped any-hit of the segment `from → to` (world) through the OM of its direction's
+    /// stratum, with at most `max_steps` texel fetches.
+    pub fn any_hit_unsnapped(&self, from: Vec3, to: Vec3, max_steps: u32) -> bool {
+        let Some(dir) = (to - from).try_normalize() else {
+            return false;
+        };
+        let (k, _) = self.candidates.select(dir);
+        let axes = &self.axes[k];
+        let seg = MapSegment { from: self.grid.to_map_cells(axes, from), to: self.grid.to_map_cells(axes, to) };
+        let Some(seg) = seg.clip(W::BITS as f32) else {
+            return false;
+        };
+        trace::any_hit_dda(seg, max_steps, |x, y| self.word(k, x, y))
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.maps.len() * std::mem::size_of::<W>() + self.bom.memory_bytes()
+    }
+}
+
+/// One frame's ROMA at the resolution chosen at run time.
+///
+/// As a [`Visibility`] / [`ClosestHit`] backend (for `bench rays` and other callers that only
+/// have rays, no surface normals): the ray's direction is **snapped** to its stratum's candidate,
+/// the origin is moved `origin_offset_cells` (1.5) cells along the snapped direction (the paper
+/// moves it along the surface normal, which a bare ray does not carry), and a finite `t_max` is
+/// shortened by the same amount so a segment ending on a light does not hit the light's own
+/// cells. Agreement with the exact tracer is therefore measured for *snapped* answers against
+/// *exact un-snapped* rays; ROMA's own techniques sample the candidate directions directly
+/// (cosine sample → stratum → candidate) and offset along the normal.
+#[derive(Clone, Debug)]
+pub enum Roma {
+    R32(RomaMaps<u32>),
+    R64(RomaMaps<u64>),
+    R128(RomaMaps<u128>),
+}
+
+/// Runs `$body` with `$m` bound to the `RomaMaps<W>` inside a [`Roma`].
+#[macro_export]
+macro_rules! with_maps {
+    ($roma:expr, $m:ident => $body:expr) => {
+        match $roma {
+            $crate::Roma::R32($m) => $body,
+            $crate::Roma::R64($m) => $body,
+            $crate::Roma::R128($m) => $body,
+        }
+    };
+}
+
+/// Halton radical inverse of `i` in `base`.
+fn radical_inverse(mut i: u32, base: u32) -> f32 {
+    let (mut inv, mut f) = (0.0f64, 1.0f64 / base as f64);
+    while i > 0 {
+        inv += (i % base) as f64 * f;
+        i /= base;
+        f /= base as f64;
+    }
+    inv as f32
+}
+
+/// The sub-cell jitter of frame `frame_index` (cells, each component in [−0.5, 0.5)): the
+/// Halton (2, 3, 5) point of index `frame_index + 1`, Cranley–Patterson rotated by the seed.
+pub fn frame_jitter(seed: u64, frame_index: u32) -> Vec3 {
+    let mut rng = Rng::new(seed, 0x6a17);
+    let shift = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let h = Vec3::new(radical_inverse(frame_index + 1, 2), radical_inverse(frame_index + 1, 3), radical_inverse(frame_index + 1, 5));
+    let v = h + shift;
+    v - v.floor() - Vec3::splat(0.5)
+}
+
+impl Roma {
+    /// Builds ROMA for `frame`: BOM (jittered for `frame_index`), candidates (drawn for
+    /// `frame_index` from `seed`), Generate.
+    pub fn build(frame: &SceneFrame, params: &RomaParams, seed: u64, frame_index: u32) -> Roma {
+        let sw = Stopwatch::start();
+        let triangles = occupancy::world_triangles(frame);
+        let mut roma = Self::build_from_triangles(&triangles, frame.bounds, params, seed, frame_index);
+        // Gathering the world-space triangles belongs to the BOM pass.
+        let gather_ms = sw.ms() - roma.timings().voxelize_ms - roma.timings().generate_ms;
+        with_maps!(&mut roma, m => m.timings.voxelize_ms += gather_ms.max(0.0));
+        roma
+    }
+
+    /// [`Roma::build`] from world-space triangles within `bounds`.
+    pub fn build_from_triangles(triangles: &[[Vec3; 3]], bounds: Aabb, params: &RomaParams, seed: u64, frame_index: u32) -> Roma {
+        let jitter = if params.jitter { frame_jitter(seed, frame_index) } else { Vec3::ZERO };
+        let grid = Grid::around(bounds, params.resolution, jitter);
+        let mut rng = Rng::new(seed, 0xd1_0000 + frame_index as u64);
+        let candidates = CandidateSet::draw(params.n, &mut rng, params.jitter);
+        match params.resolution {
+            32 => Roma::R32(build_maps(triangles, grid, candidates, params)),
+            64 => Roma::R64(build_maps(triangles, grid, candidates, params)),
+            _ => Roma::R128(build_maps(triangles, grid, candidates, params)),
+        }
+    }
+
+    pub fn grid(&self) -> &Grid {
+        with_maps!(self, m => &m.grid)
+    }
+
+    pub fn candidates(&self) -> &CandidateSet {
+        with_maps!(self, m => &m.candidates)
+    }
+
+    pub fn cell_size_world(&self) -> f32 {
+        self.grid().cell_size_world
+    }
+
+    pub fn timings(&self) -> BuildTimings {
+        with_maps!(self, m => m.timings)
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        with_maps!(self, m => m.memory_bytes())
+    }
+
+    /// Occupied BOM cells.
+    pub fn bom_cells(&self) -> u64 {
+        with_maps!(self, m => m.bom.count())
+    }
+
+    /// The candidate of `d`'s stratum and its sign (see [`CandidateSet::select`]).
+    #[inline]
+    pub fn select(&self, d: Vec3) -> (usize, f32) {
+        self.candidates().select(d)
+    }
+
+    #[inline]
+    pub fn any_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> bool {
+        with_maps!(self, m => m.any_hit_snapped(k, sign, origin, t_max))
+    }
+
+    #[inline]
+    pub fn closest_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<f32> {
+        with_maps!(self, m => m.closest_hit_snapped(k, sign, origin, t_max))
+    }
+
+    #[inline]
+    pub fn any_hit_unsnapped(&self, from: Vec3, to: Vec3, max_steps: u32) -> bool {
+        with_maps!(self, m => m.any_hit_unsnapped(from, to, max_steps))
+    }
+
+    fn origin_offset_world(&self) -> f32 {
+        with_maps!(self, m => m.origin_offset_cells) * self.cell_size_world()
+    }
+
+    /// The snapped form of a bare ray, as the [`Visibility`] impl traces it: (candidate, sign,
+    /// offset origin, shortened `t_max`), or `None` when nothing is left of the segment.
+    #[inline]
+    pub fn snapped_segment(&self, ray: &Ray, t_max: f32) -> Option<(usize, f32, Vec3, f32)> {
+        let (k, sign) = self.select(ray.dir);
+        let offset = self.origin_offset_world();
+        let t = if t_max.is_finite() { t_max - 2.0 * offset } else { t_max };
+        (t > 0.0).then(|| (k, sign, ray.origin + self.candidates().dirs[k] * (sign * offset), t))
+    }
+}
+
+fn build_maps<W: Word>(triangles: &[[Vec3; 3]], grid: Grid, candidates: CandidateSet, params: &RomaParams) -> RomaMaps<W> {
+    let sw = Stopwatch::start();
+    let bom = occupancy::voxelize::<W>(triangles, &grid, params.voxelization);
+    let voxelize_ms = sw.ms();
+    let sw = Stopwatch::start();
+    let mut maps = RomaMaps::generate(grid, bom, candidates, params.origin_offset_cells);
+    maps.timings = BuildTimings { voxelize_ms, generate_ms: sw.ms() };
+    maps
+}
+
+impl Visibility for Roma {
+    fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
+        self.snapped_segment(ray, t_max).is_some_and(|(k, sign, o, t)| self.any_hit_snapped(k, sign, o, t))
+    }
+}
+
+impl ClosestHit for Roma {
+    /// The hit distance `t` is along the **snapped** direction, from the ray's origin; ROMA knows
+    /// occupancy, not triangles, so `instance` and `triangle` are `u32::MAX` and `b1 = b2 = 0`.
+    fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        let (k, sign, o, t) = self.snapped_segment(ray, t_max)?;
+        let offset = self.origin_offset_world();
+        let d = self.closest_hit_snapped(k, sign, o, t)?;
+        Some(Hit { t: d + offset, b1: 0.0, b2: 0.0, instance: u32::MAX, triangle: u32::MAX })
+    }
+}

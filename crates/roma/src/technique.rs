@@ -1,0 +1,329 @@
+//! The shading that uses ROMA (paper §5): `ao-roma` (Eq. 1, snapped any-hit, infinite `t_max`),
+//! `gi-roma` (Eq. 2, snapped closest-hit, the hit lit from reflective shadow maps) and
+//! `soft-roma` (Eq. 3, un-snapped any-hit with a finite `t_max`), each accumulated over frames
+//! ([`crate::accumulate`]).
+//!
+//! Shared choices (the paper's where it has one):
+//! - ROMA is rebuilt in `prepare` every frame: BOM jitter and candidates are drawn from
+//!   (`seed`, `frame_index`), so `glimpse play` re-draws them and the accumulation converges.
+//! - Per pixel, `spp` samples (the paper: 1 per frame) against the one frame's ROMA; each pixel's
+//!   random numbers come from `Rng::for_pixel(seed, pixel, frame_index)`, as the references do,
+//!   so at equal seeds ROMA sees the same sample directions as the exact technique.
+//! - Ray origins move 1.5 cells along the **geometric** normal (paper §6 "along the surface
+//!   normal"; the geometric one is what the voxels follow); sample directions follow the shading
+//!   normal, as in the references.
+//! - AO / GI: a cosine-weighted direction picks its stratum's candidate ("snap", §4.2); the
+//!   estimator then treats the snapped ray as the sampled one (as the paper does). A snapped
+//!   direction can fall below the surface near the horizon; it is traced as it is.
+//! - Soft shadows: a light sample exactly as `soft-exact` draws it; the segment runs from the
+//!   offset origin to the light point pulled 1.5 cells back towards the receiver (so the
+//!   emitter's own cells do not block it), traced un-snapped through the OM of its stratum with
+//!   ≤ `dda_steps` texel fetches (`snap=true` traces it snapped instead, for comparison).
+//! - GI: direct light is computed as `gi-exact` does (exact shadow rays: the paper's renderer
+//!   has its own direct lighting; ROMA only traces the bounce). The bounce's hit point is
+//!   projected into one RSM per light ([`glimpse_render::rsm`], 512² as in the paper) and lit
+//!   when it is no farther from the light than the RSM's surface plus 2 ROMA cells (the "perturb
+//!   the points to avoid shadow acne" of §6) and the shading point is on the lit side. Environment
+//!   light is not injected (the paper's RSMs are for spot and point lights).
+
+use crate::{Accumulator, Roma, RomaParams};
+use glimpse_core::sampling::cosine_hemisphere;
+use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
+use glimpse_render::direct::{self, Shading};
+use glimpse_render::rsm::{Rsm, rsm_lights};
+use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
+use glimpse_scene::Scene;
+use glimpse_trace::GBuffer;
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// Frames accumulated by default: NRD in the paper "accumulates up to 10 frames" (§7.3).
+pub const DEFAULT_ACCUMULATE: u32 = 10;
+
+/// ROMA state shared by the three techniques: parameters, this frame's build, the history.
+struct RomaState {
+    params: RomaParams,
+    settings: Settings,
+    roma: Option<Roma>,
+    accumulator: Accumulator,
+}
+
+impl RomaState {
+    fn new(settings: &Settings, params: &Params, defaults: RomaParams, with_dda: bool) -> Result<Self, RenderError> {
+        direct::require_spp(settings)?;
+        let params_read = defaults.read(params, with_dda)?;
+        let window = params.u32("accumulate", DEFAULT_ACCUMULATE, 1, 1 << 20)?;
+        Ok(Self { params: params_read, settings: *settings, roma: None, accumulator: Accumulator::new(window) })
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Stats {
+        let roma = Roma::build(&ctx.frame, &self.params, self.settings.seed, ctx.frame_index);
+        let t = roma.timings();
+        let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
+        stats.stage("bom", t.voxelize_ms);
+        stats.stage("generate", t.generate_ms);
+        self.roma = Some(roma);
+        stats
+    }
+
+    fn roma(&self, id: &str) -> Result<&Roma, RenderError> {
+        self.roma.as_ref().ok_or_else(|| RenderError::Unsupported { technique: id.into(), message: "render called before prepare".into() })
+    }
+}
+
+/// `ao-roma`.
+pub struct AoRoma {
+    state: RomaState,
+    /// AO ray length (default ∞, as the paper's AO).
+    pub radius: f32,
+}
+
+impl AoRoma {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "ao-roma",
+            family: "ambient occlusion",
+            reference: Some("ao-exact"),
+            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=4 offset=1.5 accumulate=10)",
+            create: |_: &Scene, settings, params| Ok(Box::new(AoRoma::new(settings, params)?)),
+        }
+    }
+
+    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        let state = RomaState::new(settings, params, RomaParams::default(), false)?;
+        Ok(Self { state, radius: params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)? })
+    }
+}
+
+impl Technique for AoRoma {
+    fn id(&self) -> &'static str {
+        "ao-roma"
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        Ok(self.state.prepare(ctx))
+    }
+
+    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
+        let roma = self.state.roma("ao-roma")?;
+        let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
+        let (spp, seed, radius) = (self.state.settings.spp, self.state.settings.seed, self.radius);
+        stats.rays = stats.time("trace", || ambient_occlusion(roma, gbuffer, spp, radius, seed, ctx.frame_index, &ctx.progress, out));
+        stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
+        Ok(stats)
+    }
+}
+
+/// ROMA ambient occlusion of every GBuffer pixel (1 = open); returns the rays traced.
+#[allow(clippy::too_many_arguments)]
+pub fn ambient_occlusion(
+    roma: &Roma,
+    gbuffer: &GBuffer,
+    spp: u32,
+    radius: f32,
+    seed: u64,
+    frame_index: u32,
+    progress: &glimpse_render::Progress,
+    out: &mut Image,
+) -> u64 {
+    let offset = roma.cell_size_world() * crate::with_maps!(roma, m => m.origin_offset_cells);
+    out.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
+        progress.add(1);
+        if !gbuffer.is_hit(i) {
+            *px = Vec3::ONE;
+            return;
+        }
+        let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
+        let basis = Frame::from_z(gbuffer.shading_normal[i]);
+        let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
+        let open = (0..spp)
+            .filter(|_| {
+                let (k, sign) = roma.select(basis.to_world(cosine_hemisphere(rng.next_2d())));
+                !roma.any_hit_snapped(k, sign, origin, radius)
+            })
+            .count();
+        *px = Vec3::splat(open as f32 / spp as f32);
+    });
+    gbuffer.instance.iter().filter(|&&i| i != glimpse_trace::gbuffer::NO_HIT).count() as u64 * spp as u64
+}
+
+/// `soft-roma`.
+pub struct SoftRoma {
+    state: RomaState,
+    /// Trace the shadow rays snapped instead of by DDA (the paper's Fig. 8b comparison).
+    pub snap: bool,
+}
+
+impl SoftRoma {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "soft-roma",
+            family: "soft shadows",
+            reference: Some("soft-exact"),
+            description: "ROMA soft shadows: area-light samples as soft-exact, un-snapped DDA shadow rays (n=8 dda_steps=8; snap=true: snapped)",
+            create: |_: &Scene, settings, params| Ok(Box::new(SoftRoma::new(settings, params)?)),
+        }
+    }
+
+    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        let defaults = RomaParams { n: 8, ..RomaParams::default() };
+        let state = RomaState::new(settings, params, defaults, true)?;
+        Ok(Self { state, snap: params.bool("snap", false)? })
+    }
+}
+
+impl Technique for SoftRoma {
+    fn id(&self) -> &'static str {
+        "soft-roma"
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        Ok(self.state.prepare(ctx))
+    }
+
+    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
+        let roma = self.state.roma("soft-roma")?;
+        let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
+        let (spp, seed, snap, steps) = (self.state.settings.spp, self.state.settings.seed, self.snap, self.state.params.dda_steps);
+        let offset = roma.cell_size_world() * self.state.params.origin_offset_cells;
+        let frame = &ctx.frame;
+        stats.rays = stats.time("trace", || {
+            direct::shade_pixels(ctx, gbuffer, seed, out, |i, rng| {
+                let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
+                    return (Vec3::ZERO, 0);
+                };
+                let from = s.position + s.normal * offset;
+                let (mut e, mut rays) = (Vec3::ZERO, 0u64);
+                for _ in 0..spp {
+                    let (u_pick, u) = (rng.next_f32(), rng.next_2d());
+                    let Some(ls) = direct::sample_area_light(frame, s.position, s.normal, u_pick, u) else { continue };
+                    let cos = s.cos(ls.wi);
+                    if cos <= 0.0 {
+                        continue;
+                    }
+                    rays += 1;
+                    let to = ls.shadow.at(ls.t_max) - ls.wi * offset;
+                    if !shadow_blocked(roma, from, to, snap, steps) {
+                        e += ls.radiance * (cos / ls.pdf);
+                    }
+                }
+                (s.albedo / PI * e / spp as f32, rays)
+            })
+        })?;
+        stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
+        Ok(stats)
+    }
+}
+
+/// Is the segment `from → to` blocked in ROMA? Un-snapped DDA, or snapped along the candidate of
+/// its stratum for the same length.
+pub fn shadow_blocked(roma: &Roma, from: Vec3, to: Vec3, snap: bool, dda_steps: u32) -> bool {
+    let d = to - from;
+    let len = d.length();
+    if len <= 0.0 {
+        return false;
+    }
+    if snap {
+        let (k, sign) = roma.select(d / len);
+        roma.any_hit_snapped(k, sign, from, len)
+    } else {
+        roma.any_hit_unsnapped(from, to, dda_steps)
+    }
+}
+
+/// `gi-roma`.
+pub struct GiRoma {
+    state: RomaState,
+    pub include_direct: bool,
+    /// RSM texels per side (paper §6: 512).
+    pub rsm_resolution: u32,
+    rsms: Vec<Rsm>,
+}
+
+impl GiRoma {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "gi-roma",
+            family: "global illumination",
+            reference: Some("gi-exact"),
+            description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light)",
+            create: |_: &Scene, settings, params| Ok(Box::new(GiRoma::new(settings, params)?)),
+        }
+    }
+
+    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        let state = RomaState::new(settings, params, RomaParams::default(), false)?;
+        let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
+        Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
+    }
+}
+
+impl Technique for GiRoma {
+    fn id(&self) -> &'static str {
+        "gi-roma"
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        let mut stats = self.state.prepare(ctx);
+        let (seed, jitter) = (self.state.settings.seed, self.state.params.jitter);
+        let res = self.rsm_resolution;
+        self.rsms = stats.time("rsm", || {
+            let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
+            rsm_lights(&ctx.frame, &mut rng)
+                .iter()
+                .map(|light| {
+                    let j = if jitter { rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
+                    Rsm::build(&ctx.frame, &ctx.tracer, light, res, j)
+                })
+                .collect()
+        });
+        stats.memory_bytes += self.rsms.iter().map(Rsm::memory_bytes).sum::<usize>();
+        Ok(stats)
+    }
+
+    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
+        let roma = self.state.roma("gi-roma")?;
+        let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
+        let (spp, seed, include_direct) = (self.state.settings.spp, self.state.settings.seed, self.include_direct);
+        let cell = roma.cell_size_world();
+        let offset = cell * self.state.params.origin_offset_cells;
+        let bias = 2.0 * cell;
+        let (frame, rsms) = (&ctx.frame, &self.rsms);
+        let env = frame.scene.environment.as_ref();
+        stats.rays = stats.time("trace", || {
+            direct::shade_pixels(ctx, gbuffer, seed, out, |i, rng| {
+                let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
+                    return (Vec3::ZERO, 0);
+                };
+                let basis = Frame::from_z(s.shading_normal);
+                let origin = s.position + s.normal * offset;
+                let (mut direct_e, mut indirect, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
+                if include_direct {
+                    let (e, r) = direct::punctual_irradiance(&frame.lights, &ctx.tracer, &s);
+                    direct_e += e * spp as f32;
+                    rays += r;
+                }
+                for _ in 0..spp {
+                    if include_direct {
+                        let (a, ra) = direct::area_irradiance(frame, &ctx.tracer, &s, rng);
+                        let (e, re) = direct::env_irradiance(env, &ctx.tracer, &s, rng);
+                        direct_e += a + e;
+                        rays += ra + re;
+                    }
+                    let d = basis.to_world(cosine_hemisphere(rng.next_2d()));
+                    if s.cos(d) <= 0.0 {
+                        continue;
+                    }
+                    rays += 1;
+                    let (k, sign) = roma.select(d);
+                    let Some(t) = roma.closest_hit_snapped(k, sign, origin, f32::INFINITY) else { continue };
+                    let hit = origin + roma.candidates().dirs[k] * (sign * t);
+                    indirect += rsms.iter().map(|rsm| rsm.lit_radiance(hit, s.position, bias)).sum::<Vec3>();
+                }
+                (s.albedo * (direct_e / PI + indirect) / spp as f32, rays)
+            })
+        })?;
+        stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
+        Ok(stats)
+    }
+}
