@@ -27,7 +27,7 @@ pub fn techniques() -> Vec<TechniqueInfo> {
 }
 
 /// Distance-field settings. `Default` is the paper's DF for AO: 128³, ≤ 64 iterations, built
-/// from the same (conservative, jittered) BOM as ROMA, origins 1.5 cells off the surface.
+/// from the same (jittered, 3-axis) BOM as ROMA, origins 1.5 cells off the surface.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DfParams {
     /// Cells per axis: 32, 64 or 128 (the BOM's resolution).
@@ -41,7 +41,7 @@ pub struct DfParams {
 
 impl Default for DfParams {
     fn default() -> Self {
-        Self { resolution: 128, voxelization: Voxelization::Conservative, jitter: true, origin_offset_cells: 1.5, trace: SphereTraceParams::default() }
+        Self { resolution: 128, voxelization: Voxelization::PAPER, jitter: true, origin_offset_cells: 1.5, trace: SphereTraceParams::default() }
     }
 }
 
@@ -52,9 +52,9 @@ impl DfParams {
         if ![32, 64, 128].contains(&resolution) {
             return Err(ParamError::Invalid { key: "resolution".into(), value: resolution.to_string(), message: "must be 32, 64 or 128".into() });
         }
-        let voxelization = match params.choice("voxelization", "conservative", &["conservative", "sampled"])?.as_str() {
-            "sampled" => Voxelization::PAPER,
-            _ => Voxelization::Conservative,
+        let voxelization = match params.choice("voxelization", "sampled", &["sampled", "conservative"])?.as_str() {
+            "conservative" => Voxelization::Conservative,
+            _ => Voxelization::PAPER,
         };
         let max_steps = params.u32("steps", self.trace.max_steps, 1, 4096)?;
         Ok(Self {

@@ -1,5 +1,6 @@
 //! `ao-df` and `soft-df`: the same shading as `ao-roma` and `soft-roma` (same samples, same
-//! 1.5-cell origin offset along the geometric normal, same accumulation over frames), with the
+//! 1.5-cell offsets of the segment ends along the surface normals, same accumulation over
+//! frames), with the
 //! distance field's sphere tracing as the visibility. Rays are traced along their own direction
 //! (a distance field needs no snapping). `soft-df` defaults to 16 iterations, the setting of the
 //! paper's soft-shadow timing (§7.3); `ao-df` to 64 (§6).
@@ -10,7 +11,7 @@ use glimpse_core::{Frame, Image, Rng, Vec3};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_roma::Accumulator;
-use glimpse_roma::technique::DEFAULT_ACCUMULATE;
+use glimpse_roma::technique::{DEFAULT_ACCUMULATE, area_light_segment};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
 use rayon::prelude::*;
@@ -144,21 +145,14 @@ impl Technique for SoftDf {
                 let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
                     return (Vec3::ZERO, 0);
                 };
-                let from = s.position + s.normal * offset;
                 let (mut e, mut rays) = (Vec3::ZERO, 0u64);
                 for _ in 0..spp {
-                    let (u_pick, u) = (rng.next_f32(), rng.next_2d());
-                    let Some(ls) = direct::sample_area_light(frame, s.position, s.normal, u_pick, u) else { continue };
-                    let cos = s.cos(ls.wi);
-                    if cos <= 0.0 {
-                        continue;
-                    }
+                    let Some((ls, from, to)) = area_light_segment(frame, &s, rng.next_f32(), rng.next_2d(), offset) else { continue };
                     rays += 1;
-                    let to = ls.shadow.at(ls.t_max) - ls.wi * offset;
                     let d = to - from;
                     let len = d.length();
                     if len <= 0.0 || !df.blocked(from, d / len, len) {
-                        e += ls.radiance * (cos / ls.pdf);
+                        e += ls.radiance * (s.cos(ls.wi) / ls.pdf);
                     }
                 }
                 (s.albedo / PI * e / spp as f32, rays)

@@ -43,7 +43,16 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     if a.radius.is_nan() || a.radius <= 0.0 {
         anyhow::bail!("--radius {}: must be positive", a.radius);
     }
-    let cfg = BenchConfig { scene_spec: a.scene, kind: RayKind::parse(&a.kind)?, rays: a.rays, width: a.size.0, height: a.size.1, radius: a.radius, seed: a.seed, only: a.only };
+    let cfg = BenchConfig {
+        scene_spec: a.scene,
+        kind: RayKind::parse(&a.kind)?,
+        rays: a.rays,
+        width: a.size.0,
+        height: a.size.1,
+        radius: a.radius,
+        seed: a.seed,
+        only: a.only,
+    };
     let r = run_bench(&cfg)?;
     if a.json {
         println!("{}", serde_json::to_string_pretty(&r)?);

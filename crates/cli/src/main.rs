@@ -63,9 +63,10 @@ fn main() -> ExitCode {
         Err(e) => {
             // One line: the context chain joined, outermost first.
             let msg: Vec<String> = e.chain().map(|c| c.to_string()).collect();
-            eprintln!("error: {}", msg.join(": "));
+            // Guarantee the one-line promise even for multi-line messages from dependencies.
+            let line = msg.join(": ").lines().map(str::trim).filter(|l| !l.is_empty()).collect::<Vec<_>>().join("; ");
+            eprintln!("error: {line}");
             ExitCode::FAILURE
         }
     }
 }
-

@@ -50,7 +50,20 @@ pub fn backends() -> Vec<Backend> {
         // ROMA at the paper's defaults (128², 4²), snapped any-hit; frame 0, seed 0.
         Backend { name: "roma", build: |frame| Ok(Box::new(glimpse_roma::Roma::build(frame, &glimpse_roma::RomaParams::default(), 0, 0))) },
         // The distance field from the same BOM (128³, 3 mips, ≤ 64 sphere-tracing steps).
-        Backend { name: "df", build: |frame| Ok(Box::new(glimpse_baselines::DfScene::build(frame, &glimpse_baselines::DfParams::default(), 0, 0))) },
+        Backend {
+            name: "df",
+            build: |frame| Ok(Box::new(glimpse_baselines::DfScene::build(frame, &glimpse_baselines::DfParams::default(), 0, 0))),
+        },
+        // The 2D array of voxelizations at the paper's defaults (128³, 90×90), uncompressed and
+        // with Alg. 2 (1M-row dictionary, 4 steps); bias 1 cell at both ends, no normal offset.
+        Backend {
+            name: "voxarray",
+            build: |frame| Ok(Box::new(glimpse_voxarray::VoxArray::build(frame, &glimpse_voxarray::VoxArrayParams::uncompressed()))),
+        },
+        Backend {
+            name: "voxarray-vq",
+            build: |frame| Ok(Box::new(glimpse_voxarray::VoxArray::build(frame, &glimpse_voxarray::VoxArrayParams::default()))),
+        },
     ]
 }
 
@@ -112,7 +125,12 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
     let gbuffer = GBuffer::new(&frame, &exact, &camera, cfg.width, cfg.height);
     let rays = generate_rays(&frame, &gbuffer, cfg.kind, cfg.rays, cfg.radius, cfg.seed);
     if rays.is_empty() {
-        bail!("{}: no {} rays: the camera sees no geometry{}", cfg.scene_spec, cfg.kind.name(), if cfg.kind == RayKind::Shadow { " or the scene has no lights" } else { "" });
+        bail!(
+            "{}: no {} rays: the camera sees no geometry{}",
+            cfg.scene_spec,
+            cfg.kind.name(),
+            if cfg.kind == RayKind::Shadow { " or the scene has no lights" } else { "" }
+        );
     }
     let mut results: Vec<BackendResult> = Vec::new();
     let mut truth: Vec<bool> = Vec::new();
@@ -137,7 +155,14 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
         results.push(BackendResult { name: backend.name.to_owned(), build_ms, trace_ms, mrays_per_s, agreement: agree, speedup_vs_exact });
     }
     let occluded_fraction = truth.iter().filter(|&&o| o).count() as f64 / truth.len() as f64;
-    Ok(BenchResults { scene: cfg.scene_spec.clone(), kind: cfg.kind.name().to_owned(), rays: rays.len(), threads: rayon::current_num_threads(), occluded_fraction, backends: results })
+    Ok(BenchResults {
+        scene: cfg.scene_spec.clone(),
+        kind: cfg.kind.name().to_owned(),
+        rays: rays.len(),
+        threads: rayon::current_num_threads(),
+        occluded_fraction,
+        backends: results,
+    })
 }
 
 pub fn format_table(r: &BenchResults) -> String {
@@ -156,7 +181,15 @@ pub fn format_table(r: &BenchResults) -> String {
         "agreement"
     );
     for b in &r.backends {
-        s += &format!("{:<12} {:>10.1} {:>10.1} {:>10.2} {:>9.2}x {:>9.4}%\n", b.name, b.build_ms, b.trace_ms, b.mrays_per_s, b.speedup_vs_exact, b.agreement * 100.0);
+        s += &format!(
+            "{:<12} {:>10.1} {:>10.1} {:>10.2} {:>9.2}x {:>9.4}%\n",
+            b.name,
+            b.build_ms,
+            b.trace_ms,
+            b.mrays_per_s,
+            b.speedup_vs_exact,
+            b.agreement * 100.0
+        );
     }
     s
 }

@@ -6,10 +6,10 @@
 //! `ao-roma` and `ao-exact`). References are cached on disk (see [`crate::cache`]).
 
 use crate::cache::Cache;
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use glimpse_core::{Image, ToneMap};
 use glimpse_render::metrics::{ErrorMapKind, Metrics, error_map};
-use glimpse_render::{FrameContext, Params, Registry, Settings, Stats, Stopwatch, Technique};
+use glimpse_render::{FrameContext, Params, Registry, RenderError, Settings, Stats, Stopwatch, Technique};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
 use serde::Serialize;
@@ -59,6 +59,13 @@ pub struct Run {
     pub reference_cached: bool,
 }
 
+/// A technique not run because the scene lacks what it needs.
+#[derive(Clone, Debug, Serialize)]
+pub struct Skipped {
+    pub technique: String,
+    pub reason: String,
+}
+
 #[derive(Clone, Debug, Serialize)]
 pub struct EvalResults {
     pub scene: String,
@@ -70,6 +77,7 @@ pub struct EvalResults {
     pub gbuffer_ms: f64,
     pub peak_rss_bytes: Option<u64>,
     pub runs: Vec<Run>,
+    pub skipped: Vec<Skipped>,
 }
 
 /// What one `prepare` + `render` produced.
@@ -96,20 +104,29 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     for w in &scene.warnings {
         log(&format!("warning: {w}"));
     }
-    let ids: Vec<String> = if cfg.techniques.is_empty() { registry.all().iter().map(|t| t.id.to_owned()).collect() } else { cfg.techniques.clone() };
-    for id in &ids {
-        registry.get(id)?;
-    }
-    // Check the parameters once against every technique named: a key none of them reads is a typo.
+    let ids: Vec<String> =
+        if cfg.techniques.is_empty() { registry.all().iter().map(|t| t.id.to_owned()).collect() } else { cfg.techniques.clone() };
+    // Check the parameters once against every technique named and its reference: a key none of
+    // them reads is a typo. Techniques the scene cannot support (no lights of their kind) are an
+    // error when named, and skipped with the reason when running everything.
     let all_params = Params::parse(&cfg.params)?;
     let settings = Settings { spp: cfg.spp, seed: cfg.seed };
-    for id in &ids {
-        let _ = (registry.get(id)?.create)(&scene, &settings, &all_params)?;
+    let mut runnable = Vec::new();
+    let mut skipped = Vec::new();
+    for id in ids {
+        let info = registry.get(&id)?;
+        let check = |tid: &str| -> Result<(), RenderError> { (registry.get(tid)?.create)(&scene, &settings, &all_params).map(|_| ()) };
+        match check(&id).and_then(|_| check(info.reference.unwrap_or(info.id))) {
+            Ok(()) => runnable.push(id),
+            Err(RenderError::Unsupported { message, .. }) if cfg.techniques.is_empty() => {
+                log(&format!("skipping {id}: {message}"));
+                skipped.push(Skipped { technique: id, reason: message });
+            }
+            Err(e) => return Err(e.into()),
+        }
     }
-    let unknown = all_params.finish(&ids.join(", "));
-    if let Err(e) = unknown {
-        bail!(e);
-    }
+    all_params.finish(&runnable.join(", "))?;
+    let ids = runnable;
     std::fs::create_dir_all(&cfg.out_dir).with_context(|| format!("{}: cannot create the output directory", cfg.out_dir.display()))?;
 
     let sw = Stopwatch::start();
@@ -135,7 +152,14 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             let mut reference = (registry.get(&ref_id)?.create)(&scene, &ref_settings, &ref_params)?;
             let effective = format!("{:?}", ref_params.effective());
             let key = Cache::key(
-                &[&ref_id, &effective, &format!("{}x{}", cfg.width, cfg.height), &cfg.ref_spp.to_string(), &ref_settings.seed.to_string(), &cfg.time.to_string()],
+                &[
+                    &ref_id,
+                    &effective,
+                    &format!("{}x{}", cfg.width, cfg.height),
+                    &cfg.ref_spp.to_string(),
+                    &ref_settings.seed.to_string(),
+                    &cfg.time.to_string(),
+                ],
                 &cfg.scene_spec,
             );
             let (image, cached) = match cfg.cache.load(&key) {
@@ -209,6 +233,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         gbuffer_ms,
         peak_rss_bytes: crate::peak_rss_bytes(),
         runs,
+        skipped,
     };
     std::fs::write(cfg.out_dir.join("results.json"), serde_json::to_string_pretty(&results)?).context("writing results.json")?;
     crate::report::write_html(&results, &cfg.out_dir.join("report.html"))?;

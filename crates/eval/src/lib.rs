@@ -16,6 +16,8 @@ pub fn registry() -> Registry {
     let mut all = glimpse_render::techniques();
     all.extend(glimpse_roma::techniques());
     all.extend(glimpse_baselines::techniques());
+    all.extend(glimpse_voxarray::techniques());
+    all.extend(glimpse_dvf::techniques());
     Registry::new(all)
 }
 

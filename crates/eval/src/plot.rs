@@ -30,17 +30,27 @@ pub fn loglog_svg(series: &[Series], x_label: &str, y_label: &str) -> String {
     svg += &format!(r##"<rect x="{pad}" y="{pad}" width="{}" height="{}" fill="none" stroke="#888"/>"##, w - 2.0 * pad, h - 2.0 * pad);
     for d in x0 as i32..=x1 as i32 {
         let x = sx(10f64.powi(d));
-        svg += &format!(r##"<line x1="{x}" y1="{pad}" x2="{x}" y2="{}" stroke="#eee"/><text x="{x}" y="{}" text-anchor="middle">1e{d}</text>"##, h - pad, h - pad + 16.0);
+        svg += &format!(
+            r##"<line x1="{x}" y1="{pad}" x2="{x}" y2="{}" stroke="#eee"/><text x="{x}" y="{}" text-anchor="middle">1e{d}</text>"##,
+            h - pad,
+            h - pad + 16.0
+        );
     }
     for d in y0 as i32..=y1 as i32 {
         let y = sy(10f64.powi(d));
-        svg += &format!(r##"<line x1="{pad}" y1="{y}" x2="{}" y2="{y}" stroke="#eee"/><text x="{}" y="{}" text-anchor="end">1e{d}</text>"##, w - pad, pad - 6.0, y + 4.0);
+        svg += &format!(
+            r##"<line x1="{pad}" y1="{y}" x2="{}" y2="{y}" stroke="#eee"/><text x="{}" y="{}" text-anchor="end">1e{d}</text>"##,
+            w - pad,
+            pad - 6.0,
+            y + 4.0
+        );
     }
     svg += &format!(r##"<text x="{}" y="{}" text-anchor="middle">{x_label}</text>"##, w / 2.0, h - 16.0);
     svg += &format!(r##"<text x="14" y="{}" text-anchor="middle" transform="rotate(-90 14 {})">{y_label}</text>"##, h / 2.0, h / 2.0);
     for (i, s) in series.iter().enumerate() {
         let c = COLOURS[i % COLOURS.len()];
-        let p: Vec<String> = s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y))).collect();
+        let p: Vec<String> =
+            s.points.iter().filter(|p| p.0 > 0.0 && p.1 > 0.0).map(|&(x, y)| format!("{:.1},{:.1}", sx(x), sy(y))).collect();
         if p.is_empty() {
             continue;
         }
@@ -50,7 +60,14 @@ pub fn loglog_svg(series: &[Series], x_label: &str, y_label: &str) -> String {
             svg += &format!(r##"<circle cx="{x}" cy="{y}" r="3" fill="{c}"/>"##);
         }
         let ly = pad + 16.0 * (i as f64 + 1.0);
-        svg += &format!(r##"<rect x="{}" y="{}" width="10" height="10" fill="{c}"/><text x="{}" y="{}">{}</text>"##, w - pad + 6.0, ly - 9.0, w - pad + 20.0, ly, html_escape(&s.name));
+        svg += &format!(
+            r##"<rect x="{}" y="{}" width="10" height="10" fill="{c}"/><text x="{}" y="{}">{}</text>"##,
+            w - pad + 6.0,
+            ly - 9.0,
+            w - pad + 20.0,
+            ly,
+            html_escape(&s.name)
+        );
     }
     svg + "</svg>"
 }
@@ -65,7 +82,10 @@ mod tests {
 
     #[test]
     fn plot_has_one_polyline_per_series_and_escapes_names() {
-        let s = vec![Series { name: "a<b".into(), points: vec![(1.0, 0.1), (10.0, 0.01)] }, Series { name: "c".into(), points: vec![(2.0, 0.5)] }];
+        let s = vec![
+            Series { name: "a<b".into(), points: vec![(1.0, 0.1), (10.0, 0.01)] },
+            Series { name: "c".into(), points: vec![(2.0, 0.5)] },
+        ];
         let svg = loglog_svg(&s, "ms", "RMSE");
         assert_eq!(svg.matches("<polyline").count(), 2);
         assert!(svg.contains("a&lt;b") && svg.starts_with("<svg") && svg.ends_with("</svg>"));

@@ -48,7 +48,14 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
         );
     }
     h += "</table>";
-    let series: Vec<Series> = r.runs.iter().map(|run| Series { name: run.technique.clone(), points: run.sweep.iter().map(|p| (p.ms, p.rmse)).collect() }).collect();
+    for sk in &r.skipped {
+        let _ = write!(h, "<p>Not applicable: <b>{}</b>: {}.</p>", html_escape(&sk.technique), html_escape(&sk.reason));
+    }
+    let series: Vec<Series> = r
+        .runs
+        .iter()
+        .map(|run| Series { name: run.technique.clone(), points: run.sweep.iter().map(|p| (p.ms, p.rmse)).collect() })
+        .collect();
     if series.iter().any(|s| !s.points.is_empty()) {
         h += "<h2>Error versus time</h2><p>Each point is one render at fewer samples per pixel; x: prepare + render time (ms), y: RMSE against the reference.</p>";
         h += &loglog_svg(&series, "time (ms)", "RMSE");
@@ -58,12 +65,29 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
         let _ = write!(h, "<h3>{}</h3>", html_escape(&run.technique));
         for (key, caption) in [("image", run.technique.as_str()), ("reference", run.reference.as_str()), ("error", "FLIP error")] {
             if let Some(file) = run.images.get(key) {
-                let _ = write!(h, r#"<figure><img src="{}" alt="{}"><figcaption>{}</figcaption></figure>"#, html_escape(file), html_escape(caption), html_escape(caption));
+                let _ = write!(
+                    h,
+                    r#"<figure><img src="{}" alt="{}"><figcaption>{}</figcaption></figure>"#,
+                    html_escape(file),
+                    html_escape(caption),
+                    html_escape(caption)
+                );
             }
         }
-        let stages: Vec<String> = run.ms.iter().filter(|(k, _)| !matches!(k.as_str(), "prepare" | "render" | "total")).map(|(k, v)| format!("{} {:.1} ms", html_escape(k), v)).collect();
+        let stages: Vec<String> = run
+            .ms
+            .iter()
+            .filter(|(k, _)| !matches!(k.as_str(), "prepare" | "render" | "total"))
+            .map(|(k, v)| format!("{} {:.1} ms", html_escape(k), v))
+            .collect();
         let params: Vec<String> = run.params.iter().map(|(k, v)| format!("{}={}", html_escape(k), html_escape(v))).collect();
-        let _ = write!(h, "<p>stages: {}; parameters: {}; rays: {}</p>", if stages.is_empty() { "–".into() } else { stages.join(", ") }, if params.is_empty() { "defaults".into() } else { params.join(", ") }, run.rays);
+        let _ = write!(
+            h,
+            "<p>stages: {}; parameters: {}; rays: {}</p>",
+            if stages.is_empty() { "–".into() } else { stages.join(", ") },
+            if params.is_empty() { "defaults".into() } else { params.join(", ") },
+            run.rays
+        );
     }
     h += "</body></html>\n";
     std::fs::write(path, h).with_context(|| format!("{}: cannot write the report", path.display()))

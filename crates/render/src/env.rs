@@ -45,7 +45,10 @@ impl EnvExact {
             family: "environment lighting",
             reference: None,
             description: "diffuse environment light with exact visibility: rays=128 rotated-Hammersley cosine rays (converged=true: 4096, MIS with the map's importance sampling; rotation=cp|normal)",
-            create: |_: &Scene, settings, params| Ok(Box::new(EnvExact::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                crate::require(scene, "env-exact", crate::Need::Environment)?;
+                Ok(Box::new(EnvExact::new(settings, params)?))
+            },
         }
     }
 

@@ -34,7 +34,10 @@ impl GiExact {
             family: "global illumination",
             reference: None,
             description: "one-bounce diffuse GI with exact rays: spp cosine bounce rays, direct light at the hits by NEE (include_direct=true adds the pixel's direct light)",
-            create: |_: &Scene, settings, params| Ok(Box::new(GiExact::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                crate::require(scene, "gi-exact", crate::Need::AnyLight)?;
+                Ok(Box::new(GiExact::new(settings, params)?))
+            },
         }
     }
 

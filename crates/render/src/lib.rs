@@ -23,7 +23,7 @@ pub use params::{ParamError, Params};
 pub use progress::Progress;
 pub use registry::{Registry, TechniqueInfo};
 pub use stats::{Stats, Stopwatch};
-pub use technique::{RenderError, Settings, Technique};
+pub use technique::{Need, RenderError, Settings, Technique, require};
 
 /// The techniques this crate provides, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {

@@ -28,7 +28,10 @@ impl LightsExact {
             family: "many lights",
             reference: None,
             description: "direct diffuse light from every punctual light, one exact shadow ray each, noise-free (lights=N: first N only)",
-            create: |scene: &Scene, settings, params| Ok(Box::new(LightsExact::new(scene, settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                crate::require(scene, "lights-exact", crate::Need::PunctualLights)?;
+                Ok(Box::new(LightsExact::new(scene, settings, params)?))
+            },
         }
     }
 

@@ -54,7 +54,10 @@ impl PathTracer {
             family: "global illumination",
             reference: None,
             description: "unidirectional path tracer (NEE + MIS, GGX metallic-roughness, max_depth=8, brdf=pbr|lambert)",
-            create: |_: &Scene, settings, params| Ok(Box::new(PathTracer::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                crate::require(scene, "pt", crate::Need::AnyLight)?;
+                Ok(Box::new(PathTracer::new(settings, params)?))
+            },
         }
     }
 

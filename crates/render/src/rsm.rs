@@ -354,7 +354,8 @@ mod tests {
     #[test]
     fn texel_solid_angles_cover_the_sphere_and_hemisphere() {
         for (projection, expected) in [(Projection::Octahedral, 4.0 * PI), (Projection::HemiOctahedral, 2.0 * PI)] {
-            let light = RsmLight { position: Vec3::ZERO, axes: Frame::from_z(Vec3::Y), emission: Emission::Isotropic(Vec3::ONE), projection };
+            let light =
+                RsmLight { position: Vec3::ZERO, axes: Frame::from_z(Vec3::Y), emission: Emission::Isotropic(Vec3::ONE), projection };
             let r = 64;
             let total: f32 = (0..r * r).map(|i| texel_solid_angle(&light, i % r, i / r, r)).sum();
             println!("{projection:?}: Σ Δω = {total:.5} (expected {expected:.5})");
@@ -366,7 +367,12 @@ mod tests {
     fn projection_round_trips() {
         let mut rng = Rng::new(5, 1);
         for projection in [Projection::Octahedral, Projection::HemiOctahedral, Projection::Perspective { tan_half: 1.0 }] {
-            let light = RsmLight { position: Vec3::new(1.0, 2.0, 3.0), axes: Frame::from_z(Vec3::new(0.3, -1.0, 0.2).normalize()), emission: Emission::Isotropic(Vec3::ONE), projection };
+            let light = RsmLight {
+                position: Vec3::new(1.0, 2.0, 3.0),
+                axes: Frame::from_z(Vec3::new(0.3, -1.0, 0.2).normalize()),
+                emission: Emission::Isotropic(Vec3::ONE),
+                projection,
+            };
             let mut worst = 0.0f32;
             for _ in 0..2000 {
                 let u = Vec2::new(0.05, 0.05) + rng.next_2d() * 0.9;

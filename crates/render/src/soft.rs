@@ -24,7 +24,10 @@ impl SoftExact {
             family: "soft shadows",
             reference: None,
             description: "direct diffuse light from the area lights: spp light samples by power, exact shadow rays (shadows=false: unshadowed)",
-            create: |_: &Scene, settings, params| Ok(Box::new(SoftExact::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                crate::require(scene, "soft-exact", crate::Need::AreaLights)?;
+                Ok(Box::new(SoftExact::new(settings, params)?))
+            },
         }
     }
 

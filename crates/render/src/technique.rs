@@ -17,6 +17,33 @@ pub enum RenderError {
     UnknownTechnique { id: String, known: String },
 }
 
+/// What a technique needs from a scene to compute anything meaningful.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Need {
+    PunctualLights,
+    Environment,
+    AreaLights,
+    /// Any light at all: punctual, area or environment.
+    AnyLight,
+}
+
+/// Fails with [`RenderError::Unsupported`] when `scene` lacks what `technique` needs, so that a
+/// technique never silently renders a black image (eval reports such pairs as not applicable).
+pub fn require(scene: &glimpse_scene::Scene, technique: &str, need: Need) -> Result<(), RenderError> {
+    let has_area = scene.instances.iter().any(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive());
+    let (ok, what) = match need {
+        Need::PunctualLights => (!scene.lights.is_empty(), "punctual (point, spot or directional) lights"),
+        Need::Environment => (scene.environment.is_some(), "an environment map"),
+        Need::AreaLights => (has_area, "area lights (emissive triangles)"),
+        Need::AnyLight => (has_area || !scene.lights.is_empty() || scene.environment.is_some(), "lights of any kind"),
+    };
+    if ok {
+        Ok(())
+    } else {
+        Err(RenderError::Unsupported { technique: technique.to_owned(), message: format!("the scene '{}' has no {what}", scene.name) })
+    }
+}
+
 /// Settings every technique shares.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Settings {

@@ -54,13 +54,10 @@ impl CandidateSet {
     /// `sign · dirs[k]`.
     #[inline]
     pub fn select(&self, d: Vec3) -> (usize, f32) {
-        let mut local = self.hemisphere.to_local(d);
-        let mut sign = 1.0;
-        if local.z < 0.0 {
-            local = -local;
-            sign = -1.0;
-        }
-        let u = hemisphere_to_square(local);
+        let local = self.hemisphere.to_local(d);
+        // Branch-free: the other hemisphere's rays use −d (a random 50% branch costs more).
+        let sign = 1.0f32.copysign(local.z);
+        let u = hemisphere_to_square(local * sign);
         let n = self.n as f32;
         let a = ((u.x * n) as u32).min(self.n - 1);
         let b = ((u.y * n) as u32).min(self.n - 1);

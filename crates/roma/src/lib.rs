@@ -29,7 +29,7 @@ pub use grid::Grid;
 pub use occupancy::{OccupancyMap, Voxelization};
 pub use word::Word;
 
-use glimpse_core::{Aabb, Frame, Ray, Rng, Vec3};
+use glimpse_core::{Aabb, Frame, Ray, Rng, Vec3, Vec4};
 use glimpse_render::{ParamError, Params, Stopwatch, TechniqueInfo};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::{ClosestHit, Hit, Visibility};
@@ -40,8 +40,9 @@ pub fn techniques() -> Vec<TechniqueInfo> {
     vec![technique::AoRoma::info(), technique::GiRoma::info(), technique::SoftRoma::info()]
 }
 
-/// ROMA's build and tracing settings. `Default` is the paper's AO/GI setting (§7.1, Fig. 9):
-/// positional resolution 128², angular resolution 4², 1.5-cell origin offset, ≤ 8 DDA steps.
+/// ROMA's build and tracing settings. `Default` is the paper's AO/GI setting (§6, §7.1, Fig. 9):
+/// positional resolution 128², angular resolution 4², the BOM rasterized at texel centres along
+/// x, y and z and united, 1.5-cell origin offset, ≤ 8 DDA steps.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RomaParams {
     /// Positional resolution R (cells per axis = bits per texel): 32, 64 or 128.
@@ -59,7 +60,7 @@ pub struct RomaParams {
 
 impl Default for RomaParams {
     fn default() -> Self {
-        Self { resolution: 128, n: 4, voxelization: Voxelization::Conservative, jitter: true, origin_offset_cells: 1.5, dda_steps: 8 }
+        Self { resolution: 128, n: 4, voxelization: Voxelization::PAPER, jitter: true, origin_offset_cells: 1.5, dda_steps: 8 }
     }
 }
 
@@ -71,9 +72,10 @@ impl RomaParams {
         if ![32, 64, 128].contains(&resolution) {
             return Err(ParamError::Invalid { key: "resolution".into(), value: resolution.to_string(), message: "must be 32, 64 or 128".into() });
         }
-        let voxelization = match params.choice("voxelization", "conservative", &["conservative", "sampled"])?.as_str() {
-            "sampled" => Voxelization::PAPER,
-            _ => Voxelization::Conservative,
+        let default = if self.voxelization == Voxelization::Conservative { "conservative" } else { "sampled" };
+        let voxelization = match params.choice("voxelization", default, &["sampled", "conservative"])?.as_str() {
+            "conservative" => Voxelization::Conservative,
+            _ => Voxelization::PAPER,
         };
         Ok(Self {
             resolution,
@@ -93,6 +95,28 @@ pub struct BuildTimings {
     pub generate_ms: f64,
 }
 
+/// World point → cell coordinates of one map, as three affine rows (the map's "view-projection
+/// matrix" of Alg. 2 line 15, scaled to cells).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MapTransform {
+    pub rows: [Vec4; 3],
+}
+
+impl MapTransform {
+    pub fn new(grid: &Grid, axes: &Frame) -> Self {
+        let inv = 1.0 / grid.cell_size_world;
+        let half = grid.resolution as f32 * 0.5;
+        let row = |a: Vec3| (a * inv).extend(half - a.dot(grid.center) * inv);
+        Self { rows: [row(axes.x), row(axes.y), row(axes.z)] }
+    }
+
+    #[inline]
+    pub fn apply(&self, p: Vec3) -> Vec3 {
+        let p = p.extend(1.0);
+        Vec3::new(self.rows[0].dot(p), self.rows[1].dot(p), self.rows[2].dot(p))
+    }
+}
+
 /// One frame's ROMA at one word width.
 #[derive(Clone, Debug)]
 pub struct RomaMaps<W: Word> {
@@ -100,6 +124,8 @@ pub struct RomaMaps<W: Word> {
     pub candidates: CandidateSet,
     /// Axes of OM k (depth along candidate k).
     pub axes: Vec<Frame>,
+    /// World → cell coordinates of OM k.
+    pub to_map: Vec<MapTransform>,
     pub bom: OccupancyMap<W>,
     /// The OMs, layer-major: word `k·R² + y·R + x`.
     pub maps: Vec<W>,
@@ -112,7 +138,8 @@ impl<W: Word> RomaMaps<W> {
     pub fn generate(grid: Grid, bom: OccupancyMap<W>, candidates: CandidateSet, origin_offset_cells: f32) -> Self {
         let axes: Vec<Frame> = candidates.dirs.iter().map(|&d| grid::om_axes(d)).collect();
         let maps = generate::generate_all(&bom, &axes);
-        Self { grid, candidates, axes, bom, maps, origin_offset_cells, timings: BuildTimings::default() }
+        let to_map = axes.iter().map(|a| MapTransform::new(&grid, a)).collect();
+        Self { grid, candidates, axes, to_map, bom, maps, origin_offset_cells, timings: BuildTimings::default() }
     }
 
     #[inline]
@@ -127,36 +154,52 @@ impl<W: Word> RomaMaps<W> {
         OccupancyMap { words: self.maps[k * r2..(k + 1) * r2].to_vec() }
     }
 
-    /// Alg. 2 `Trace` of the snapped ray from `origin` along `sign · d_k` over world distance
-    /// `t_max` (∞: to the end of the volume): the range word `U_result`, the range's far slice,
-    /// the direction along the map's z and the origin's depth in cells.
+    /// Alg. 2 `Trace` of the snapped ray from map-cell point `q` along `±z` over `depth_cells`
+    /// (∞: to the end of the volume): the texel word and the slice range `(t_start, t_end)`.
     #[inline]
-    fn trace_column(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<(W, u32, bool, f32)> {
-        let q = self.grid.to_map_cells(&self.axes[k], origin);
+    fn column(&self, k: usize, plus: bool, q: Vec3, depth_cells: f32) -> Option<(W, u32, u32)> {
         let r = W::BITS as f32;
         if !(q.x >= 0.0 && q.y >= 0.0 && q.x < r && q.y < r) {
             return None;
         }
-        let plus = sign > 0.0;
-        let (t_start, t_end) = trace::slice_range(q.z, plus, t_max / self.grid.cell_size_world, W::BITS)?;
-        let u = self.word(k, q.x as u32, q.y as u32);
-        Some((trace::range_bits(u, t_start, t_end), t_start.max(t_end), plus, q.z))
+        let (t_start, t_end) = trace::slice_range(q.z, plus, depth_cells, W::BITS)?;
+        Some((self.word(k, q.x as u32, q.y as u32), t_start, t_end))
     }
 
-    /// Snapped any-hit along `sign · d_k` (no offset applied here).
+    /// Snapped any-hit from map-cell point `q` of OM k (see [`RomaMaps::any_hit_snapped`]).
+    #[inline]
+    pub fn any_hit_column(&self, k: usize, plus: bool, q: Vec3, depth_cells: f32) -> bool {
+        self.column(k, plus, q, depth_cells).is_some_and(|(u, t_start, t_end)| trace::any_hit(trace::range_bits(u, t_start, t_end)))
+    }
+
+    /// Snapped any-hit along `sign · d_k` from world point `origin` over world distance `t_max`
+    /// (∞: to the end of the volume); no offset applied here.
     #[inline]
     pub fn any_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> bool {
-        self.trace_column(k, sign, origin, t_max).is_some_and(|(ur, ..)| trace::any_hit(ur))
+        self.any_hit_column(k, sign > 0.0, self.to_map[k].apply(origin), t_max / self.grid.cell_size_world)
     }
 
     /// Snapped closest hit along `sign · d_k`: world distance from `origin` (≥ 0) to Alg. 2's
     /// hit depth (centre of the first occupied slice towards +z, its entry face towards −z).
     #[inline]
     pub fn closest_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<f32> {
-        let (ur, hi, plus, z) = self.trace_column(k, sign, origin, t_max)?;
-        let z_hit = trace::closest_hit_slices(ur, hi, plus)?;
-        let cells = if plus { z_hit - z } else { z - z_hit };
+        let plus = sign > 0.0;
+        let q = self.to_map[k].apply(origin);
+        let (u, t_start, t_end) = self.column(k, plus, q, t_max / self.grid.cell_size_world)?;
+        let z_hit = trace::closest_hit_slices(trace::range_bits(u, t_start, t_end), t_start.max(t_end), plus)?;
+        let cells = if plus { z_hit - q.z } else { q.z - z_hit };
         Some(cells.max(0.0) * self.grid.cell_size_world)
+    }
+
+    /// [`Visibility::occluded`] for a bare ray: snapped, the origin moved `origin_offset_cells`
+    /// along the snapped direction (i.e. along the map's z), `t_max` shortened at both ends.
+    #[inline]
+    pub fn occluded_ray(&self, ray: &Ray, t_max: f32) -> bool {
+        let (k, sign) = self.candidates.select(ray.dir);
+        let mut q = self.to_map[k].apply(ray.origin);
+        q.z += sign * self.origin_offset_cells;
+        let depth = t_max / self.grid.cell_size_world - 2.0 * self.origin_offset_cells;
+        depth > 0.0 && self.any_hit_column(k, sign > 0.0, q, depth)
     }
 
     /// Un-snapped any-hit of the segment `from → to` (world) through the OM of its direction's
@@ -166,8 +209,7 @@ impl<W: Word> RomaMaps<W> {
             return false;
         };
         let (k, _) = self.candidates.select(dir);
-        let axes = &self.axes[k];
-        let seg = MapSegment { from: self.grid.to_map_cells(axes, from), to: self.grid.to_map_cells(axes, to) };
+        let seg = MapSegment { from: self.to_map[k].apply(from), to: self.to_map[k].apply(to) };
         let Some(seg) = seg.clip(W::BITS as f32) else {
             return false;
         };
@@ -328,7 +370,7 @@ fn build_maps<W: Word>(triangles: &[[Vec3; 3]], grid: Grid, candidates: Candidat
 
 impl Visibility for Roma {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
-        self.snapped_segment(ray, t_max).is_some_and(|(k, sign, o, t)| self.any_hit_snapped(k, sign, o, t))
+        with_maps!(self, m => m.occluded_ray(ray, t_max))
     }
 }
 

@@ -4,17 +4,24 @@
 //!
 //! Two voxelizations, both as three axis passes whose results are united (paper §3.1: "three
 //! times of rasterization with cameras placed towards three axis directions ... the union"):
-//! - [`Voxelization::Conservative`] (default, as issue #4 asks): every cell a triangle touches.
-//!   Each triangle is rasterized conservatively in the pass of its dominant normal axis (the
-//!   standard GPU voxelizer's axis choice); per covered texel the triangle is clipped to the texel
-//!   column and every slice between the clipped polygon's nearest and farthest depth is set.
-//!   Because a triangle's intersection with a column is convex, that is exactly the set of cells
-//!   the triangle intersects, so the other two passes would add nothing for it.
-//!   **Deviation**: the paper rasterizes at texel centres (one cell per fragment), which leaves
-//!   holes; the conservative form has none, at the price of surfaces 1–2 cells thick.
-//! - [`Voxelization::Sampled`] (the paper's): every triangle in all three passes, one cell per
-//!   texel centre inside its projection, at the depth interpolated there. A triangle seen edge-on
-//!   by a pass produces no fragments in it, which is why the paper unites three passes.
+//! - [`Voxelization::Sampled`] (**default**, the paper's): every triangle in all three passes,
+//!   one cell per texel centre inside its projection, at the depth interpolated there. A
+//!   triangle seen edge-on by a pass produces no fragments in it, which is why the paper unites
+//!   three passes. The union sets exactly the cells whose three axis-parallel centre lines cross
+//!   a triangle: a thin, 6-separating voxelization (no axis-parallel line of cell centres crosses
+//!   a closed surface unblocked), not a conservative one (a point of a triangle can lie in an
+//!   empty cell; acceptance check 9 measures how often).
+//! - [`Voxelization::Conservative`] (`voxelization=conservative`, as issue #4 first asked): every
+//!   cell a triangle touches. Each triangle is rasterized conservatively in the pass of its
+//!   dominant normal axis (the standard GPU voxelizer's axis choice); per covered texel the
+//!   triangle is clipped to the texel column and every slice between the clipped polygon's
+//!   nearest and farthest depth is set. Because a triangle's intersection with a column is
+//!   convex, that is exactly the set of cells the triangle intersects, so the other two passes
+//!   would add nothing for it.
+//!   **Why it is not the default** (docs/techniques/roma.md has the numbers): its surfaces are 1–2
+//!   cells thick, and with the paper's 1.5-cell origin offset (tuned for thin voxels) rays start
+//!   inside or next to occupied cells far more often: more self-occlusion, higher FLIP against
+//!   `ao-exact` on every test scene, and the bunny misses the 95% clear-ray agreement target.
 //!
 //! Write synchronization: the paper uses rasterizer-ordered views; we fold triangles into
 //! per-thread maps with rayon and OR them together (no atomics on `u128`).
@@ -91,10 +98,10 @@ impl<W: Word> OccupancyMap<W> {
 /// How triangles become cells.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Voxelization {
-    /// Every cell a triangle touches (default).
+    /// Every cell a triangle touches.
     Conservative,
     /// The paper's rasterization at texel centres, in the passes of `axes` (bit 0 = x, 1 = y,
-    /// 2 = z; the paper uses all three, `0b111`).
+    /// 2 = z; the paper, and our default, use all three: [`Voxelization::PAPER`]).
     Sampled { axes: u8 },
 }
 

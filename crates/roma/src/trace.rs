@@ -14,9 +14,11 @@
 //! Filled gaps: an origin whose texel lies outside the map misses; `t_start` is clamped into the
 //! map, and an origin beyond the map's far end (in the ray's direction) misses; a finite `t_max`
 //! ends the range at the slice of the segment's end point (spec §4.6 "finite t_max").
-//! The DDA visits at most `max_steps` texel columns; when the budget runs out before the segment
-//! ends, the last column tests the whole rest of the segment's depth range (a "snapped tail":
-//! one fetch, so occluders beyond the budget still count).
+//! The DDA visits at most `max_steps` texel columns; a segment that is not finished by then is
+//! reported unoccluded (its rest is not tested), as a step-limited march usually ends. We tried
+//! testing the rest of the segment in the last column instead (one more fetch): on the Cornell
+//! box's soft shadows it wrongly occluded 21.6% of the samples against 5.6% (+1.2% wrongly free)
+//! for stopping, because that column drifts off the segment and meets the ceiling near the light.
 
 use crate::word::Word;
 use glimpse_core::Vec3;
@@ -96,7 +98,8 @@ impl MapSegment {
 }
 
 /// Un-snapped any-hit: a 2D DDA over the texels the segment's xy projection crosses (at most
-/// `max_steps` texel fetches), testing in each texel the depth slices the segment spans there.
+/// `max_steps` texel fetches; unoccluded if the segment is not finished by then), testing in each
+/// texel the depth slices the segment spans there.
 /// `fetch(x, y)` returns the texel's word. The segment must already be clipped to the map.
 pub fn any_hit_dda<W: Word>(seg: MapSegment, max_steps: u32, fetch: impl Fn(u32, u32) -> W) -> bool {
     let b = W::BITS;
@@ -121,9 +124,9 @@ pub fn any_hit_dda<W: Word>(seg: MapSegment, max_steps: u32, fetch: impl Fn(u32,
     let delta_x = if d.x.abs() < 1e-12 { f32::INFINITY } else { 1.0 / d.x.abs() };
     let delta_y = if d.y.abs() < 1e-12 { f32::INFINITY } else { 1.0 / d.y.abs() };
     let mut t_in = 0.0f32;
-    for step in 0..max_steps.max(1) {
+    for _ in 0..max_steps {
         let at_end = x == end_x && y == end_y;
-        let t_out = if at_end || step + 1 == max_steps.max(1) { 1.0 } else { t_x.min(t_y).min(1.0) };
+        let t_out = if at_end { 1.0 } else { t_x.min(t_y).min(1.0) };
         let (z_in, z_out) = (seg.from.z + d.z * t_in, seg.from.z + d.z * t_out);
         let lo = z_in.min(z_out).clamp(0.0, last) as u32;
         let hi = z_in.max(z_out).clamp(0.0, last) as u32;

@@ -10,7 +10,7 @@ use glimpse_roma::directions::{CandidateSet, hemisphere_to_square, square_to_hem
 use glimpse_roma::generate::generate_map;
 use glimpse_roma::grid::{BOM_AXES, Grid, om_axes};
 use glimpse_roma::occupancy::{OccupancyMap, Voxelization, voxelize, world_triangles};
-use glimpse_roma::technique::{AoRoma, shadow_blocked};
+use glimpse_roma::technique::{AoRoma, area_light_segment, shadow_blocked};
 use glimpse_roma::trace::{any_hit, closest_hit_slices, range_bits};
 use glimpse_roma::{Roma, RomaParams, Word, with_maps};
 use glimpse_scene::{Light, Material, Mesh, Scene};
@@ -505,17 +505,21 @@ fn test_scenes() -> Vec<Scene> {
 #[test]
 fn check_10_any_hit_vs_exact_on_the_snapped_ray() {
     for scene in test_scenes() {
-        let s = study(&scene, RomaParams::default(), 40, 4);
-        let (all, clear) = (s.agree as f64 / s.rays as f64, s.clear_agree as f64 / s.clear_rays as f64);
-        println!(
-            "check 10: {} (128³, 4²): snapped any-hit agrees with exact any-hit on the same ray in {:.2}% of {} rays, {:.2}% of the {} whose exact hit is > 2 cells away",
-            scene.name,
-            100.0 * all,
-            s.rays,
-            100.0 * clear,
-            s.clear_rays
-        );
-        assert!(clear >= 0.95, "[OURS] ≥ 95% for rays with clearance > 2 cells");
+        for voxelization in [Voxelization::PAPER, Voxelization::Conservative] {
+            let s = study(&scene, RomaParams { voxelization, ..Default::default() }, 40, 4);
+            let (all, clear) = (s.agree as f64 / s.rays as f64, s.clear_agree as f64 / s.clear_rays as f64);
+            println!(
+                "check 10: {} (128³, 4², {voxelization:?}): snapped any-hit agrees with exact any-hit on the same ray in {:.2}% of {} rays, {:.2}% of the {} whose exact hit is > 2 cells away (or that miss)",
+                scene.name,
+                100.0 * all,
+                s.rays,
+                100.0 * clear,
+                s.clear_rays
+            );
+            if voxelization == RomaParams::default().voxelization {
+                assert!(clear >= 0.95, "[OURS] ≥ 95% for rays with clearance > 2 cells");
+            }
+        }
     }
 }
 
@@ -637,16 +641,11 @@ fn check_14_snapping_policy() {
     let offset = 1.5 * roma.cell_size_world();
     let (mut samples, mut wrong_snapped, mut wrong_dda, mut wrong_dda64) = (0u64, 0u64, 0u64, 0u64);
     for i in (0..g.len()).filter(|&i| g.is_hit(i) && g.emission[i] == Vec3::ZERO) {
-        let (p, n) = (g.position[i], g.normal[i]);
+        let s = glimpse_render::direct::Shading::from_gbuffer(&g, i).unwrap();
         let mut rng = Rng::for_pixel(14, i as u64, 0);
         for _ in 0..4 {
-            let Some(ls) = glimpse_render::direct::sample_area_light(&frame, p, n, rng.next_f32(), rng.next_2d()) else { continue };
-            if ls.wi.dot(n) <= 0.0 {
-                continue;
-            }
+            let Some((ls, from, to)) = area_light_segment(&frame, &s, rng.next_f32(), rng.next_2d(), offset) else { continue };
             let exact = tracer.occluded(&ls.shadow, ls.t_max);
-            let from = p + n * offset;
-            let to = ls.shadow.at(ls.t_max) - ls.wi * offset;
             samples += 1;
             wrong_snapped += (shadow_blocked(&roma, from, to, true, 8) != exact) as u64;
             wrong_dda += (shadow_blocked(&roma, from, to, false, 8) != exact) as u64;
@@ -662,27 +661,30 @@ fn check_14_snapping_policy() {
     );
     assert!(wrong_dda < wrong_snapped, "un-snapped shadow rays are closer to exact than snapped ones");
 
-    // AO: snapped vs un-snapped (DDA along the original direction, 128 steps) barely differ
-    // in the mean.
-    let roma = Roma::build(&frame, &RomaParams::default(), 14, 0);
-    let offset = 1.5 * roma.cell_size_world();
+    // AO: snapped vs un-snapped (DDA along the original direction, 256 steps), averaged over
+    // frames (one frame's 16 candidates are shared by every pixel, so a single frame's mean is
+    // noisy): the difference should be small (Fig. 8a).
     let (mut ao_snapped, mut ao_unsnapped, mut ao_exact, mut count) = (0.0f64, 0.0f64, 0.0f64, 0u64);
-    for i in (0..g.len()).filter(|&i| g.is_hit(i)) {
-        let origin = g.position[i] + g.normal[i] * offset;
-        let basis = Frame::from_z(g.shading_normal[i]);
-        let mut rng = Rng::for_pixel(15, i as u64, 0);
-        for _ in 0..4 {
-            let d = basis.to_world(cosine_hemisphere(rng.next_2d()));
-            let (k, sign) = roma.select(d);
-            ao_snapped += !roma.any_hit_snapped(k, sign, origin, f32::INFINITY) as u32 as f64;
-            let far = origin + d * (4.0 * roma.grid().half_extent_world());
-            ao_unsnapped += !roma.any_hit_unsnapped(origin, far, 256) as u32 as f64;
-            ao_exact += !tracer.occluded(&Ray::new(origin, d), f32::INFINITY) as u32 as f64;
-            count += 1;
+    for frame_index in 0..6 {
+        let roma = Roma::build(&frame, &RomaParams::default(), 14, frame_index);
+        let offset = 1.5 * roma.cell_size_world();
+        for i in (0..g.len()).filter(|&i| g.is_hit(i)) {
+            let origin = g.position[i] + g.normal[i] * offset;
+            let basis = Frame::from_z(g.shading_normal[i]);
+            let mut rng = Rng::for_pixel(15, i as u64, frame_index as u64);
+            for _ in 0..2 {
+                let d = basis.to_world(cosine_hemisphere(rng.next_2d()));
+                let (k, sign) = roma.select(d);
+                ao_snapped += !roma.any_hit_snapped(k, sign, origin, f32::INFINITY) as u32 as f64;
+                let far = origin + d * (4.0 * roma.grid().half_extent_world());
+                ao_unsnapped += !roma.any_hit_unsnapped(origin, far, 256) as u32 as f64;
+                ao_exact += !tracer.occluded(&Ray::new(origin, d), f32::INFINITY) as u32 as f64;
+                count += 1;
+            }
         }
     }
     let (s, u, e) = (ao_snapped / count as f64, ao_unsnapped / count as f64, ao_exact / count as f64);
-    println!("  cornell mean AO over {count} rays: snapped {s:.4}, un-snapped {u:.4}, exact {e:.4} (snap − no-snap: {:+.4})", s - u);
+    println!("  cornell mean AO over {count} rays in 6 frames: snapped {s:.4}, un-snapped {u:.4}, exact {e:.4} (snap − no-snap: {:+.4})", s - u);
     assert!((s - u).abs() < 0.03, "snapping is nearly free for AO (Fig. 8a)");
 }
 

@@ -266,7 +266,7 @@ struct OrbitDef {
 
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
-    let def: SceneDef = toml::from_str(&text).map_err(|e| SceneError::parse(path, e.to_string().trim_end()))?;
+    let def: SceneDef = toml::from_str(&text).map_err(|e| SceneError::parse(path, one_line_toml_error(&text, &e)))?;
     Builder { toml: path, dir: path.parent().unwrap_or(Path::new("")), scene: Scene::default(), textures: TextureCache::default() }
         .build(def)
 }
@@ -712,5 +712,19 @@ mod tests {
         let spin = Motion::Orbit { base: p, center: Vec3::ZERO, axis: Vec3::Y, period_s: 2.0, phase: 0.0 };
         let (m, exact) = compose(&spin, &Motion::Fixed(Mat4::from_translation(Vec3::Z)));
         assert!(exact && m.at(0.5).abs_diff_eq(spin.at(0.5) * Mat4::from_translation(Vec3::Z), 1e-5));
+    }
+}
+
+/// toml's `Display` draws the offending line with carets over several lines; the command line
+/// prints one line per error, so keep the message and say where.
+fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim_end().replace('\n', "; ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            let column = span.start - text[..span.start.min(text.len())].rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!("line {line}, column {column}: {message}")
+        }
+        None => message,
     }
 }

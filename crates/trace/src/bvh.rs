@@ -52,8 +52,7 @@ pub struct BuildParams {
 
 impl Default for BuildParams {
     fn default() -> Self {
-        let e = |k: &str, d: f32| std::env::var(k).ok().and_then(|v| v.parse().ok()).unwrap_or(d);
-        Self { bins: e("TMP_BINS", 16.0) as usize, max_leaf_size: e("TMP_LEAF", 4.0) as usize, traversal_cost: e("TMP_TC", 1.0) }
+        Self { bins: 16, max_leaf_size: 4, traversal_cost: 1.0 }
     }
 }
 
@@ -119,16 +118,17 @@ impl Bvh {
 /// Children per [`Bvh4Node`].
 pub const WIDTH: usize = 4;
 
-/// A 4-wide node: its children's boxes as structure-of-arrays (`planes[axis][child]` holds the
-/// boxes' minima, `planes[3 + axis][child]` their maxima), so that one ray is tested against all
-/// four with 4-lane SIMD (the "QBVH" of Dammertz et al. 2008). Children
+/// A 4-wide node: its children's boxes as structure-of-arrays (`planes[axis][0][child]` holds the
+/// boxes' minima along `axis`, `planes[axis][1][child]` their maxima), so that one ray is tested
+/// against all four with 4-lane SIMD (the "QBVH" of Dammertz et al. 2008). Children
 /// are interior nodes (`count == 0`, `child` = node index), leaves (`count > 0`, `child` = first
-/// primitive in [`Bvh::prim_order`] order) or empty slots (`child == EMPTY_SLOT`, box at the point
-/// (+∞, +∞, +∞), which no ray can enter). 128 bytes: two cache lines.
+/// primitive in [`Bvh::prim_order`] order) or empty slots (`child == EMPTY_SLOT`, with the empty
+/// box min = +∞ > max = −∞, which a slab test that takes each axis's near plane by the sign of the
+/// ray's direction never enters). 128 bytes: two cache lines.
 #[derive(Clone, Copy, Debug, PartialEq)]
 #[repr(C, align(64))]
 pub struct Bvh4Node {
-    pub planes: [[f32; WIDTH]; 6],
+    pub planes: [[[f32; WIDTH]; 2]; 3],
     pub child: [u32; WIDTH],
     pub count: [u32; WIDTH],
 }
@@ -137,15 +137,15 @@ pub const EMPTY_SLOT: u32 = u32::MAX;
 
 impl Bvh4Node {
     const EMPTY: Bvh4Node = Bvh4Node {
-        planes: [[f32::INFINITY; WIDTH]; 6],
+        planes: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3],
         child: [EMPTY_SLOT; WIDTH],
         count: [0; WIDTH],
     };
 
     fn set_child(&mut self, slot: usize, b: Aabb, child: u32, count: u32) {
         for axis in 0..3 {
-            self.planes[axis][slot] = b.min[axis];
-            self.planes[3 + axis][slot] = b.max[axis];
+            self.planes[axis][0][slot] = b.min[axis];
+            self.planes[axis][1][slot] = b.max[axis];
         }
         self.child[slot] = child;
         self.count[slot] = count;
@@ -370,7 +370,10 @@ mod tests {
                         continue;
                     }
                     let p = &node.planes;
-                    let b = Aabb::new(Vec3::new(p[0][slot], p[1][slot], p[2][slot]), Vec3::new(p[3][slot], p[4][slot], p[5][slot]));
+                    let b = Aabb::new(
+                        Vec3::new(p[0][0][slot], p[1][0][slot], p[2][0][slot]),
+                        Vec3::new(p[0][1][slot], p[1][1][slot], p[2][1][slot]),
+                    );
                     if node.count[slot] > 0 {
                         wide_leaves.push((node.child[slot], node.count[slot], b));
                     } else {

@@ -298,7 +298,10 @@ fn traverse<const ANY: bool>(bvh: &Bvh4, ray: &PreparedRay, mut t_max: f32, mut 
             let n = &nodes[cur.child as usize];
             let (mask, near) = ray4.enter(n, t_max);
             let near = near.to_array();
-            let pending = |slot: u32| Pending { child: n.child[slot as usize], count: n.count[slot as usize], near: near[slot as usize] };
+            let pending = |slot: u32| {
+                let slot = slot as usize % WIDTH;
+                Pending { child: n.child[slot], count: n.count[slot], near: near[slot] }
+            };
             // Zero, one, two, or more children entered (`rest`: all but the first).
             let first = mask.trailing_zeros();
             let rest = mask & mask.wrapping_sub(1);
@@ -402,43 +405,42 @@ impl Stack {
     }
 }
 
-/// A ray splatted across four lanes for [`Ray4::enter`], with, per axis, the index in
-/// [`Bvh4Node::planes`] of the boxes' plane that the ray crosses first (the minimum when the
-/// direction is positive) and of the one it crosses last.
+/// A ray splatted across four lanes for [`Ray4::enter`], with, per axis, whether it crosses a
+/// box's maximum plane before its minimum (a negative direction).
 struct Ray4 {
     origin: [Vec4; 3],
     inv_dir: [Vec4; 3],
-    near_plane: [usize; 3],
-    far_plane: [usize; 3],
+    negative: [bool; 3],
 }
 
 impl Ray4 {
     #[inline(always)]
     fn new(ray: &PreparedRay) -> Self {
         let (o, i) = (ray.origin, ray.inv_dir);
-        let near = |axis: usize| if i[axis] >= 0.0 { axis } else { 3 + axis };
         Self {
             origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
             inv_dir: [Vec4::splat(i.x), Vec4::splat(i.y), Vec4::splat(i.z)],
-            near_plane: [near(0), near(1), near(2)],
-            far_plane: [(near(0) + 3) % 6, (near(1) + 3) % 6, (near(2) + 3) % 6],
+            negative: [i.x < 0.0, i.y < 0.0, i.z < 0.0],
         }
     }
 
     /// Which of the node's four child boxes the ray enters before `t_max` (bit mask), and where.
     /// Slab test; the exit distance is scaled up by 1 + 2γ₃ (pbrt-v4 §6.8.2) so rounding never
-    /// culls a box the ray really touches. Empty slots (boxes at +∞) are never entered.
+    /// culls a box the ray really touches. Empty slots (inverted boxes) are never entered: their
+    /// near plane is at +∞ and their far plane at −∞ whichever way the ray goes.
     #[inline(always)]
     fn enter(&self, n: &Bvh4Node, t_max: f32) -> (u32, Vec4) {
         let mut near = Vec4::ZERO;
-        let mut far = Vec4::splat(f32::INFINITY);
+        let mut far = Vec4::splat(t_max);
         for axis in 0..3 {
-            let t_near = (Vec4::from_array(n.planes[self.near_plane[axis]]) - self.origin[axis]) * self.inv_dir[axis];
-            let t_far = (Vec4::from_array(n.planes[self.far_plane[axis]]) - self.origin[axis]) * self.inv_dir[axis];
+            let planes = &n.planes[axis];
+            let neg = self.negative[axis];
+            let t_near = (Vec4::from_array(planes[neg as usize]) - self.origin[axis]) * self.inv_dir[axis];
+            let t_far = (Vec4::from_array(planes[!neg as usize]) - self.origin[axis]) * self.inv_dir[axis];
             near = near.max(t_near);
             far = far.min(t_far);
         }
-        ((near.cmple(far * (1.0 + 2.0 * GAMMA3)) & near.cmplt(Vec4::splat(t_max))).bitmask(), near)
+        (near.cmple(far * (1.0 + 2.0 * GAMMA3)).bitmask(), near)
     }
 }
 

@@ -3,6 +3,7 @@
 //! exact tracer must guarantee to be a ground truth. Double precision is used only when an edge
 //! function is exactly zero.
 
+use glimpse_core::glam::Vec3Swizzles;
 use glimpse_core::{Ray, Vec3A};
 
 /// A ray prepared for the watertight test and for slab tests against boxes.
@@ -22,9 +23,9 @@ impl PreparedRay {
     pub fn new(ray: &Ray) -> Self {
         let origin = Vec3A::from(ray.origin);
         let dir = Vec3A::from(ray.dir);
-        let safe = |d: f32| if d.abs() > 1e-30 { d } else { 1e-30f32.copysign(d) };
-        let inv_dir = Vec3A::new(1.0 / safe(dir.x), 1.0 / safe(dir.y), 1.0 / safe(dir.z));
         let a = dir.abs();
+        let tiny = Vec3A::splat(1e-30);
+        let inv_dir = Vec3A::ONE / Vec3A::select(a.cmpgt(tiny), dir, tiny.copysign(dir));
         let kz = if a.x >= a.y && a.x >= a.z {
             0
         } else if a.y >= a.z {
@@ -34,9 +35,9 @@ impl PreparedRay {
         };
         // The paper swaps kx and ky when dir[kz] < 0 to keep the triangles' winding; the test
         // here is two-sided, and a swap only negates u, v, w, det and t_scaled exactly, so it is
-        // left out (the results are bit-for-bit the same).
+        // left out (the results are the same values; a zero barycentric may change sign).
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let shear = Vec3A::new(dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
+        let shear = Vec3A::new(dir[kx], dir[ky], 1.0) / dir[kz];
         Self { origin, dir, inv_dir, kz, shear }
     }
 
@@ -54,40 +55,40 @@ impl PreparedRay {
         }
     }
 
+    /// The test with the three vertices' coordinates side by side in SIMD lanes: every lane
+    /// computes exactly the scalar expression of the paper (same operands, same order), so the
+    /// result is that of a scalar implementation, bit for bit.
     #[inline(always)]
     fn intersect_along<const KZ: usize>(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
         let (kx, ky) = ((KZ + 1) % 3, (KZ + 2) % 3);
         let a = v[0] - self.origin;
         let b = v[1] - self.origin;
         let c = v[2] - self.origin;
-        let (sx, sy, sz) = (self.shear.x, self.shear.y, self.shear.z);
-        let ax = a[kx] - sx * a[KZ];
-        let ay = a[ky] - sy * a[KZ];
-        let bx = b[kx] - sx * b[KZ];
-        let by = b[ky] - sy * b[KZ];
-        let cx = c[kx] - sx * c[KZ];
-        let cy = c[ky] - sy * c[KZ];
-        let mut u = cx * by - cy * bx;
-        let mut vv = ax * cy - ay * cx;
-        let mut w = bx * ay - by * ax;
-        if u == 0.0 || vv == 0.0 || w == 0.0 {
+        // One coordinate of the three vertices: (a[k], b[k], c[k]).
+        let coordinate = |k: usize| Vec3A::new(a[k], b[k], c[k]);
+        let z = coordinate(KZ);
+        // Sheared into the ray's space: x = (ax, bx, cx), y = (ay, by, cy).
+        let x = coordinate(kx) - z * self.shear.x;
+        let y = coordinate(ky) - z * self.shear.y;
+        // Edge functions (w, u, v): w = bx·ay − by·ax, u = cx·by − cy·bx, v = ax·cy − ay·cx.
+        let mut edges = x.yzx() * y - y.yzx() * x;
+        if edges.cmpeq(Vec3A::ZERO).any() {
             // Exactly on an edge in single precision: decide the edge in double precision.
-            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
-            u = (cx * by - cy * bx) as f32;
-            vv = (ax * cy - ay * cx) as f32;
-            w = (bx * ay - by * ax) as f32;
+            let (ax, bx, cx) = (x.x as f64, x.y as f64, x.z as f64);
+            let (ay, by, cy) = (y.x as f64, y.y as f64, y.z as f64);
+            edges = Vec3A::new((bx * ay - by * ax) as f32, (cx * by - cy * bx) as f32, (ax * cy - ay * cx) as f32);
         }
-        if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+        if edges.cmplt(Vec3A::ZERO).any() && edges.cmpgt(Vec3A::ZERO).any() {
             return None;
         }
+        let (w, u, vv) = (edges.x, edges.y, edges.z);
         let det = u + vv + w;
         if det == 0.0 {
             return None;
         }
-        let az = sz * a[KZ];
-        let bz = sz * b[KZ];
-        let cz = sz * c[KZ];
-        let t_scaled = u * az + vv * bz + w * cz;
+        // (w·cz, u·az, v·bz) with (az, bz, cz) = sz·z.
+        let weighted = edges * (z * self.shear.z).zxy();
+        let t_scaled = weighted.y + weighted.z + weighted.x;
         // Compare t = t_scaled / det against (0, t_max) without dividing, for either sign of det.
         let (t_scaled, det_abs) = if det < 0.0 { (-t_scaled, -det) } else { (t_scaled, det) };
         if t_scaled <= 0.0 || t_scaled >= t_max * det_abs {
@@ -117,6 +118,75 @@ mod tests {
         assert!(r.intersect_triangle(&tri(), 1.9).is_none(), "t_max excludes");
         let behind = PreparedRay::new(&Ray::new(Vec3::new(0.25, 0.5, 2.0), Vec3::new(0.0, 0.0, 1.0)));
         assert!(behind.intersect_triangle(&tri(), f32::INFINITY).is_none());
+    }
+
+    /// The paper's scalar algorithm, written out as the first version of this file had it
+    /// (with the kx/ky swap and run-time axis indices).
+    fn scalar_reference(ray: &Ray, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+        let (origin, dir) = (Vec3A::from(ray.origin), Vec3A::from(ray.dir));
+        let d = dir.abs();
+        let kz = if d.x >= d.y && d.x >= d.z {
+            0
+        } else if d.y >= d.z {
+            1
+        } else {
+            2
+        };
+        let (mut kx, mut ky) = ((kz + 1) % 3, (kz + 2) % 3);
+        if dir[kz] < 0.0 {
+            std::mem::swap(&mut kx, &mut ky);
+        }
+        let (sx, sy, sz) = (dir[kx] / dir[kz], dir[ky] / dir[kz], 1.0 / dir[kz]);
+        let (a, b, c) = (v[0] - origin, v[1] - origin, v[2] - origin);
+        let (ax, ay) = (a[kx] - sx * a[kz], a[ky] - sy * a[kz]);
+        let (bx, by) = (b[kx] - sx * b[kz], b[ky] - sy * b[kz]);
+        let (cx, cy) = (c[kx] - sx * c[kz], c[ky] - sy * c[kz]);
+        let (mut u, mut vv, mut w) = (cx * by - cy * bx, ax * cy - ay * cx, bx * ay - by * ax);
+        if u == 0.0 || vv == 0.0 || w == 0.0 {
+            let (ax, ay, bx, by, cx, cy) = (ax as f64, ay as f64, bx as f64, by as f64, cx as f64, cy as f64);
+            u = (cx * by - cy * bx) as f32;
+            vv = (ax * cy - ay * cx) as f32;
+            w = (bx * ay - by * ax) as f32;
+        }
+        if (u < 0.0 || vv < 0.0 || w < 0.0) && (u > 0.0 || vv > 0.0 || w > 0.0) {
+            return None;
+        }
+        let det = u + vv + w;
+        if det == 0.0 {
+            return None;
+        }
+        let t_scaled = u * (sz * a[kz]) + vv * (sz * b[kz]) + w * (sz * c[kz]);
+        let (t_scaled, det_abs) = if det < 0.0 { (-t_scaled, -det) } else { (t_scaled, det) };
+        if t_scaled <= 0.0 || t_scaled >= t_max * det_abs {
+            return None;
+        }
+        Some((t_scaled / det_abs, vv * (1.0 / det), w * (1.0 / det)))
+    }
+
+    /// Same hits, same t and barycentrics to the bit, except that a zero barycentric may be −0
+    /// in one and +0 in the other (the reference's kx/ky swap negates the edge functions).
+    #[test]
+    fn simd_form_gives_exactly_the_scalar_algorithms_results() {
+        let mut rng = Rng::new(21, 0);
+        let mut p = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
+        let (mut hits, mut on_grid) = (0, 0);
+        for i in 0..200_000 {
+            // Every fourth case on a coarse grid, so edges and vertices are hit exactly and the
+            // double-precision path runs; the others random.
+            let snap = |v: Vec3| if i % 4 == 0 { (v * 4.0).round() / 4.0 } else { v };
+            let v = [snap(p()), snap(p()), snap(p())].map(Vec3A::from);
+            let origin = snap(p() * 3.0);
+            let target = snap(p());
+            let ray = Ray::new(origin, target - origin);
+            let t_max = if i % 3 == 0 { f32::INFINITY } else { 0.5 + p().x.abs() };
+            let (ours, reference) = (PreparedRay::new(&ray).intersect_triangle(&v, t_max), scalar_reference(&ray, &v, t_max));
+            let bits = |h: Option<(f32, f32, f32)>| h.map(|(t, b1, b2)| [t, b1, b2].map(|x| (x + 0.0).to_bits()));
+            assert_eq!(bits(ours), bits(reference), "case {i}: {ray:?} {v:?} t_max {t_max}: {ours:?} vs {reference:?}");
+            hits += ours.is_some() as u32;
+            on_grid += (i % 4 == 0 && ours.is_some()) as u32;
+        }
+        println!("{hits} hits ({on_grid} on the grid) of 200000, all identical");
+        assert!(hits > 10_000 && on_grid > 1_000);
     }
 
     #[test]

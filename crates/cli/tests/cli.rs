@@ -1,0 +1,199 @@
+//! The command line as a user meets it: each bad input gives one `error:` line naming the file or
+//! argument and a non-zero exit, never a panic; good input writes the image it promises.
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+fn glimpse(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).output().expect("the glimpse binary runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("glimpse-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn write(name: &str, text: &str) -> PathBuf {
+    let p = tmp(name);
+    std::fs::write(&p, text).unwrap();
+    p
+}
+
+/// Asserts a clean failure: non-zero exit, no panic, and an error line containing every `needle`.
+fn assert_error(out: &Output, needles: &[&str]) {
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    println!("exit {:?}: {}", out.status.code(), stderr.trim());
+    assert!(!out.status.success(), "expected failure");
+    assert!(!stderr.contains("panicked"), "panic: {stderr}");
+    let line = stderr.lines().find(|l| l.starts_with("error")).unwrap_or_else(|| panic!("no error line in: {stderr}"));
+    for n in needles {
+        assert!(line.contains(n), "error line lacks '{n}': {line}");
+    }
+}
+
+fn render(scene: &str, extra: &[&str]) -> Output {
+    let out = tmp("out.png");
+    let mut args = vec!["render", scene, "-t", "ao-exact", "--size", "16x16", "--spp", "2", "-o", out.to_str().unwrap()];
+    args.extend_from_slice(extra);
+    glimpse(&args)
+}
+
+#[test]
+fn renders_the_builtin_cornell_box_to_png_and_exr() {
+    for ext in ["png", "exr"] {
+        let out = tmp(&format!("cornell.{ext}"));
+        let o = glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "32x24", "--spp", "4", "-o", out.to_str().unwrap()]);
+        let stdout = String::from_utf8_lossy(&o.stdout);
+        println!("{}", stdout.trim());
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        assert!(stdout.contains("Mrays/s") && stdout.contains("ms"), "summary line: {stdout}");
+        let img = glimpse_core::Image::read(&out).unwrap();
+        assert_eq!((img.width, img.height), (32, 24));
+    }
+}
+
+#[test]
+fn same_command_gives_the_same_image() {
+    let a = tmp("det-a.exr");
+    let b = tmp("det-b.exr");
+    for p in [&a, &b] {
+        assert!(
+            glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "24x24", "--spp", "3", "--seed", "5", "-o", p.to_str().unwrap()])
+                .status
+                .success()
+        );
+    }
+    assert_eq!(glimpse_core::Image::read(&a).unwrap(), glimpse_core::Image::read(&b).unwrap());
+}
+
+#[test]
+fn lists_scenes_and_techniques() {
+    let s = String::from_utf8_lossy(&glimpse(&["scenes"]).stdout).to_string();
+    assert!(s.contains("cornell") && s.contains("many-lights"), "{s}");
+    let t = String::from_utf8_lossy(&glimpse(&["techniques"]).stdout).to_string();
+    assert!(t.contains("ao-exact") && t.contains("pt"), "{t}");
+}
+
+#[test]
+fn missing_file_names_the_file() {
+    assert_error(&render("/nonexistent/scene.obj", &[]), &["/nonexistent/scene.obj"]);
+    assert_error(&render("/nonexistent/scene.gltf", &[]), &["/nonexistent/scene.gltf"]);
+    assert_error(&render("/nonexistent/scene.toml", &[]), &["/nonexistent/scene.toml"]);
+}
+
+#[test]
+fn malformed_files_name_the_file() {
+    let obj = write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n");
+    assert_error(&render(obj.to_str().unwrap(), &[]), &["bad.obj"]);
+    let gltf = write("bad.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ ");
+    assert_error(&render(gltf.to_str().unwrap(), &[]), &["bad.gltf", "malformed"]);
+    let toml = write("bad.toml", "name = \"x\"\n[[mesh]\nfile = 3\n");
+    assert_error(&render(toml.to_str().unwrap(), &[]), &["bad.toml"]);
+    let unknown_key = write("typo.toml", "name = \"x\"\nnmae = 2\n");
+    assert_error(&render(unknown_key.to_str().unwrap(), &[]), &["typo.toml", "nmae"]);
+}
+
+#[test]
+fn invalid_geometry_is_an_error() {
+    let nan = write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert_error(&render(nan.to_str().unwrap(), &[]), &["nan.obj", "NaN"]);
+    let inf = write("inf.obj", "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    assert_error(&render(inf.to_str().unwrap(), &[]), &["inf.obj"]);
+    let degenerate = write("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+    assert_error(&render(degenerate.to_str().unwrap(), &[]), &["degenerate.obj", "degenerate"]);
+    let empty = write("empty.obj", "# nothing here\n");
+    assert_error(&render(empty.to_str().unwrap(), &[]), &["empty.obj", "empty"]);
+    let flat = write("line.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n");
+    assert_error(&render(flat.to_str().unwrap(), &[]), &["line.obj"]);
+}
+
+#[test]
+fn unknown_names_and_absurd_arguments_are_errors() {
+    assert_error(&render("no-such-scene", &[]), &["unknown scene 'no-such-scene'"]);
+    let out = tmp("x.png");
+    let o = out.to_str().unwrap();
+    assert_error(&glimpse(&["render", "cornell", "-t", "no-such-technique", "-o", o]), &["no-such-technique"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "0x10", "-o", o]), &["0x10"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "1000000x10", "-o", o]), &["1000000x10"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--spp", "0", "-o", o]), &["--spp"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--spp", "999999999", "-o", o]), &["--spp"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--time", "nan", "-o", o]), &["--time"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--set", "radius=-1", "-o", o]), &["radius"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--set", "bogus=1", "-o", o]), &["bogus", "ao-exact"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "-o", tmp("x.bmp").to_str().unwrap()]), &["x.bmp"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "lights-exact", "-o", o]), &["lights-exact", "no punctual"]);
+    assert_error(&glimpse(&["bench", "rays", "cornell", "--kind", "bogus"]), &["bogus"]);
+    assert_error(&glimpse(&["play", "cornell", "-t", "ao-exact", "--frames", "0"]), &["--frames"]);
+}
+
+#[test]
+fn eval_writes_results_json_and_report() {
+    let dir = tmp("eval");
+    let o = glimpse(&[
+        "eval",
+        "cornell",
+        "-t",
+        "ao-exact",
+        "--size",
+        "16x16",
+        "--spp",
+        "2",
+        "--ref-spp",
+        "8",
+        "--no-cache",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let run = &json["runs"][0];
+    println!("{}", serde_json::to_string(run).unwrap());
+    assert_eq!(json["size"], serde_json::json!([16, 16]));
+    assert_eq!(run["technique"], "ao-exact");
+    for k in ["rmse", "mse", "relmse", "psnr", "ssim", "flip"] {
+        assert!(run["metrics"][k].is_number(), "metric {k}");
+    }
+    for k in ["prepare", "render", "total"] {
+        assert!(run["ms"][k].is_number(), "timing {k}");
+    }
+    let html = std::fs::read_to_string(dir.join("report.html")).unwrap();
+    assert!(html.contains("<table") && html.contains("ao-exact.png"));
+    assert!(Path::new(&dir.join("ao-exact.png")).exists() && Path::new(&dir.join("ao-exact-error.png")).exists());
+}
+
+#[test]
+fn bench_rays_reports_the_exact_tracer() {
+    let o = glimpse(&["bench", "rays", "cornell", "--kind", "ao", "--rays", "20000", "--size", "32x32", "--only", "none", "--json"]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
+    println!("{json}");
+    assert_eq!(json["backends"][0]["name"], "exact");
+    assert_eq!(json["backends"][0]["agreement"], 1.0);
+    assert!(json["rays"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn play_prints_per_frame_timings_and_writes_frames() {
+    let dir = tmp("play");
+    let o = glimpse(&[
+        "play",
+        "cornell-dynamic",
+        "-t",
+        "ao-exact",
+        "--frames",
+        "3",
+        "--size",
+        "16x16",
+        "--spp",
+        "1",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    println!("{stdout}");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert_eq!(stdout.lines().filter(|l| l.starts_with("frame")).count(), 3);
+    assert!(stdout.contains("mean over 3 frames"));
+    assert!(dir.join("frame-0002.png").exists());
+}

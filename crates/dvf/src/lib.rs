@@ -1,0 +1,195 @@
+//! glimpse-dvf: discrete visibility fields rebuilt every frame. Günay and Akyüz, "Real-time
+//! Discrete Visibility Fields for Ray-Traced Dynamic Scenes" (Computers & Graphics 2025), which
+//! moves the precomputation of Xu et al. 2022 ("Precomputed Discrete Visibility Fields for
+//! Real-Time Ray-Traced Environment Lighting", EGSR; the paper calls it "Yang et al.") into five
+//! compute passes, read through our spec `shared/specs/dvf.md` (errata E1–E8 there).
+//!
+//! One frame's build, in the paper's order (one file per stage, each a timed parallel pass):
+//! 1. [`areas`] (CS1): world-space triangles, areas and normals.
+//! 2. [`scan`] (CS2, CS3): Blelloch up-sweep and down-sweep of the areas in blocks.
+//! 3. [`points`] + [`field`] (CS4): area-proportional point samples (Eq. 1 ceiling, Eq. 2; hash
+//!    or Hammersley), N_r rays each ([`rays`]), traced exactly and OR-ed atomically into the
+//!    cell's octahedral visible/occluded masks ([`grid`]).
+//! 4. [`labels`] (CS5): the per-cell occlusion label.
+//!
+//! The runtime ([`technique`], `env-dvf`) is Xu et al.'s Algorithm 3 with the spec's errata E2
+//! and E3 fixed.
+
+pub mod areas;
+pub mod field;
+pub mod grid;
+pub mod labels;
+pub mod points;
+pub mod rays;
+pub mod scan;
+pub mod technique;
+
+pub use field::Atomics;
+pub use grid::{Grid, Masks};
+pub use points::{PointSampling, Rounding};
+
+use glimpse_render::{ParamError, Params, Stats, TechniqueInfo};
+use glimpse_scene::SceneFrame;
+use glimpse_trace::Visibility;
+use rayon::prelude::*;
+
+/// The techniques of this crate, for the registry.
+pub fn techniques() -> Vec<TechniqueInfo> {
+    vec![technique::EnvDvf::info()]
+}
+
+/// How the `l_occ = 0` branch gets E_unshad(n).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unshadowed {
+    /// Order-2 SH irradiance of the map (Ramamoorthi and Hanrahan), ÷π: the paper's.
+    Sh,
+    /// The fragment's own N_r rays, untraced: (1/N_r) Σ L(ω). Deviation (not the paper): removes
+    /// the SH error, so only mask errors remain.
+    Rays,
+}
+
+/// DVF settings. `Default` is the paper's Sponza setting where it has one (N_r = 128,
+/// N_P = 10M, ceiling, hash, 77 cells along the longest axis as its 77×48×34 grid,
+/// workgroups of 1024); the octahedral resolution R is not stated by the paper (our 8).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct DvfParams {
+    /// N_r: rays per point sample and per fragment (`rays`).
+    pub rays: u32,
+    /// N_P: requested point samples (`points`).
+    pub points: u32,
+    pub rounding: Rounding,
+    pub sampling: PointSampling,
+    /// Cells along the longest axis of the scene bounds, cubic cells (`grid`).
+    pub grid: u32,
+    /// Octahedral map resolution R (`octahedral`), R×R pixels per mask.
+    pub octahedral: u32,
+    /// Most point samples one CS4 task takes (`task_points`; the paper illustrates 3).
+    pub task_points: u32,
+    /// Prefix-sum workgroup size (`workgroup`; the paper's 1024 = maxComputeWorkGroupInvocations).
+    pub workgroup: u32,
+    /// Rotate ray sets about the normal (`rotation=normal`) instead of a Cranley-Patterson shift.
+    pub rotate_about_normal: bool,
+    pub unshadowed: Unshadowed,
+    pub atomics: Atomics,
+    /// Trace rays whose pixel is in neither mask (`unknown=trace`; the paper: skip).
+    pub trace_unknown: bool,
+    /// Trace both hemispheres of every sample (`sides=both`; the paper: front only).
+    pub both_sides: bool,
+}
+
+impl Default for DvfParams {
+    fn default() -> Self {
+        Self {
+            rays: 128,
+            points: 10_000_000,
+            rounding: Rounding::Ceil,
+            sampling: PointSampling::Hash,
+            grid: 77,
+            octahedral: 8,
+            task_points: 64,
+            workgroup: 1024,
+            rotate_about_normal: false,
+            unshadowed: Unshadowed::Sh,
+            atomics: Atomics::PerSample,
+            both_sides: false,
+            trace_unknown: false,
+        }
+    }
+}
+
+impl DvfParams {
+    /// Reads every key (names shared with `env-exact` where they mean the same: `rays`,
+    /// `rotation`), with `self` as the defaults.
+    pub fn read(self, p: &Params) -> Result<Self, ParamError> {
+        let octahedral = p.u32("octahedral", self.octahedral, 1, grid::MAX_RESOLUTION)?;
+        Ok(Self {
+            rays: p.u32("rays", self.rays, 1, 1 << 16)?,
+            points: p.u32("points", self.points, 0, 1 << 30)?,
+            rounding: if p.choice("rounding", "ceil", &["ceil", "round"])? == "round" { Rounding::Round } else { Rounding::Ceil },
+            sampling: if p.choice("sampling", "hash", &["hash", "hammersley"])? == "hammersley" {
+                PointSampling::Hammersley
+            } else {
+                PointSampling::Hash
+            },
+            grid: p.u32("grid", self.grid, 1, 4096)?,
+            octahedral,
+            task_points: p.u32("task_points", self.task_points, 1, 1 << 20)?,
+            workgroup: p.u32("workgroup", self.workgroup, 1, 1 << 16)?,
+            rotate_about_normal: p.choice("rotation", "cp", &["cp", "normal"])? == "normal",
+            unshadowed: if p.choice("unshadowed", "sh", &["sh", "rays"])? == "rays" { Unshadowed::Rays } else { Unshadowed::Sh },
+            atomics: if p.choice("atomics", "sample", &["sample", "ray"])? == "ray" { Atomics::PerRay } else { Atomics::PerSample },
+            both_sides: p.choice("sides", "front", &["front", "both"])? == "both",
+            trace_unknown: p.choice("unknown", "skip", &["skip", "trace"])? == "trace",
+        })
+    }
+}
+
+/// One frame's field: the grid, the masks and the labels (plus what the build counted).
+#[derive(Debug)]
+pub struct Dvf {
+    pub grid: Grid,
+    pub masks: Masks,
+    /// l_occ per cell.
+    pub labels: Vec<u8>,
+    /// Point samples placed (Σ N(T_k)).
+    pub samples: u64,
+    pub rays_traced: u64,
+    pub triangles: usize,
+}
+
+impl Dvf {
+    /// The five stages, each timed into `stats`: vertices (the CPU update), areas (CS1),
+    /// upsweep (CS2), downsweep (CS3), clear, dvf (CS4), labels (CS5). `reuse` lends the previous
+    /// frame's masks (cleared, not reallocated, when the size is unchanged).
+    pub fn build(
+        frame: &SceneFrame,
+        vis: &dyn Visibility,
+        p: &DvfParams,
+        seed: u64,
+        frame_index: u32,
+        reuse: Option<Masks>,
+        stats: &mut Stats,
+    ) -> Dvf {
+        let mesh = stats.time("vertices", || areas::WorldMesh::gather(frame));
+        let (areas, normals) = stats.time("areas", || areas::areas_and_normals(&mesh));
+        let levels = stats.time("upsweep", || scan::up_sweep_passes(&areas, p.workgroup as usize));
+        let (prefix, total) = stats.time("downsweep", || scan::down_sweep_passes(levels));
+        let grid = Grid::from_bounds(frame.bounds, p.grid);
+        let masks = stats.time("clear", || match reuse {
+            Some(mut m) => {
+                m.reset(grid.cell_count(), p.octahedral);
+                m
+            }
+            None => Masks::new(grid.cell_count(), p.octahedral),
+        });
+        let (samples, rays_traced) = stats.time("dvf", || {
+            let counts: Vec<u32> = areas.par_iter().map(|&a| points::sample_count(p.points, a, total, p.rounding)).collect();
+            let first_ids: Vec<u64> =
+                prefix.par_iter().enumerate().map(|(k, &s)| points::first_sample_id(p.points, s, total, k)).collect();
+            let tasks = points::tasks(&counts, p.task_points);
+            let settings = field::SampleSettings {
+                sampling: p.sampling,
+                rays: p.rays,
+                rotate_about_normal: p.rotate_about_normal,
+                seed,
+                frame_index,
+                both_sides: p.both_sides,
+            };
+            let rays = field::build_masks(vis, &mesh, &normals, &first_ids, &tasks, &grid, &masks, &settings, p.atomics, true);
+            (counts.iter().map(|&c| c as u64).sum::<u64>(), rays)
+        });
+        let labels = stats.time("labels", || labels::occlusion_labels(&masks));
+        stats.rays += rays_traced;
+        stats.memory_bytes = stats.memory_bytes.max(masks.memory_bytes() + labels.len() + mesh.memory_bytes() + areas.len() * 20);
+        Dvf { grid, masks, labels, samples, rays_traced, triangles: mesh.indices.len() }
+    }
+
+    pub fn memory_bytes(&self) -> usize {
+        self.masks.memory_bytes() + self.labels.len()
+    }
+
+    /// Cells labelled occluded.
+    pub fn occluded_cells(&self) -> usize {
+        self.labels.iter().filter(|&&l| l == 1).count()
+    }
+}

@@ -1,0 +1,99 @@
+//! The 2D array's direction parameterization (paper §3.1, Alg. 1 loops and Alg. 3 line 1,
+//! `DiscretizeDirection`), with the spec's conventions (§2.2 [Inference]; the paper names no
+//! rotation axes):
+//!
+//! - `R(θ, φ) = Rx(φ)·Ry(θ)`; rows run along the rotated frame's +z (the orthographic depth
+//!   axis), so the world row direction is `d(θ, φ) = Rᵀ e_z = (−sinθ cosφ, sinφ, cosθ cosφ)`.
+//! - `directions` = n angles per axis, `k = 180°/n`, θ_i = i·k for i < n, φ_j = j·k for j < n.
+//!   Half-open loops (erratum: Alg. 1's "0 to 180" / "0 to 90" would give (n+1)²).
+//! - Only lines are covered (d and −d share a voxelization), which suffices for segment tests.
+//! - The transposed copy is `j + n/2`: `R(θ, φ+90°) = Rx(90°)·R(θ, φ)`, so `n` must be even.
+
+use glimpse_core::{Mat3, Vec3};
+
+/// The angle grid of one array.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Directions {
+    /// Angles per axis (90 for the paper's k = 2°).
+    pub n: u32,
+    /// `R(θ_i, φ_j)` at `i·n + j`, the lookup table of Alg. 6 (used by the query too).
+    pub rotations: Vec<Mat3>,
+}
+
+impl Directions {
+    pub fn new(n: u32) -> Self {
+        assert!(n >= 2 && n.is_multiple_of(2), "directions must be even and ≥ 2, got {n}");
+        let mut rotations = Vec::with_capacity((n * n) as usize);
+        for i in 0..n {
+            for j in 0..n {
+                rotations.push(rotation(angle_rad(n, i), angle_rad(n, j)));
+            }
+        }
+        Self { n, rotations }
+    }
+
+    /// Angular increment k in degrees.
+    pub fn k_deg(&self) -> f32 {
+        180.0 / self.n as f32
+    }
+
+    pub fn rotation(&self, i: u32, j: u32) -> Mat3 {
+        self.rotations[(i * self.n + j) as usize]
+    }
+
+    /// World-space unit row direction of voxelization (i, j).
+    pub fn row_direction(&self, i: u32, j: u32) -> Vec3 {
+        row_direction(angle_rad(self.n, i), angle_rad(self.n, j))
+    }
+
+    /// `DiscretizeDirection` (Alg. 3 line 1): the (i, j) whose row line is nearest `d`'s line.
+    #[inline]
+    pub fn discretize(&self, d: Vec3) -> (u32, u32) {
+        discretize(d, self.n)
+    }
+}
+
+/// Angle index → radians for `n` angles over 180°.
+pub fn angle_rad(n: u32, index: u32) -> f32 {
+    (index as f64 * std::f64::consts::PI / n as f64) as f32
+}
+
+/// `R(θ, φ) = Rx(φ)·Ry(θ)`.
+pub fn rotation(theta: f32, phi: f32) -> Mat3 {
+    Mat3::from_rotation_x(phi) * Mat3::from_rotation_y(theta)
+}
+
+/// `d(θ, φ) = R(θ, φ)ᵀ e_z`.
+pub fn row_direction(theta: f32, phi: f32) -> Vec3 {
+    Vec3::new(-theta.sin() * phi.cos(), phi.sin(), theta.cos() * phi.cos())
+}
+
+/// The spec's `DiscretizeDirection` (§2.2) for `n` angles per axis.
+#[inline]
+pub fn discretize(d: Vec3, n: u32) -> (u32, u32) {
+    let mut d = d.normalize_or(Vec3::Z);
+    if d.y < 0.0 {
+        d = -d; // line symmetry
+    }
+    let mut phi = d.y.clamp(-1.0, 1.0).asin(); // [0, π/2]
+    let mut theta = (-d.x).atan2(d.z); // (−π, π]
+    let pi = std::f32::consts::PI;
+    if theta < 0.0 {
+        theta += pi;
+        phi = pi - phi;
+    }
+    if theta >= pi {
+        theta -= pi;
+        phi = pi - phi;
+    }
+    let step = pi / n as f32;
+    let mut i = (theta / step).round() as i64;
+    let mut j = (phi / step).round() as i64;
+    if i >= n as i64 {
+        // θ = 180° is θ = 0 with φ → 180° − φ.
+        i = 0;
+        j = n as i64 - j;
+    }
+    j = j.rem_euclid(n as i64); // φ = 180° is the same line as φ = 0
+    (i as u32, j as u32)
+}
