@@ -16,7 +16,8 @@ use glimpse_render::{FrameContext, Params, Registry, Settings};
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let mut scene_spec = None;
-    let (mut ids, mut size, mut frames, mut spp, mut ref_spp, mut seed, mut set) = (vec!["ao-roma".to_string()], 256u32, 16u32, 1u32, 256u32, 0u64, Vec::new());
+    let (mut ids, mut size, mut frames, mut spp, mut ref_spp, mut seed, mut set) =
+        (vec!["ao-roma".to_string()], 256u32, 16u32, 1u32, 256u32, 0u64, Vec::new());
     let mut i = 0;
     while i < args.len() {
         let value = || args.get(i + 1).cloned().ok_or(format!("{} needs a value", args[i]));

@@ -16,9 +16,9 @@
 //!   not say how its mips are built; min-bounds keep the steps safe.
 //! - Level 0 is sampled trilinearly between cell centres (the paper: hardware trilinear).
 
+use glimpse_core::Vec3;
 use glimpse_roma::occupancy::OccupancyMap;
 use glimpse_roma::{Grid, Word};
-use glimpse_core::Vec3;
 use rayon::prelude::*;
 
 /// Fixed-point scale: stored value = distance in cells × 256.

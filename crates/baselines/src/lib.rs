@@ -8,6 +8,8 @@
 //! - [`technique`]: `ao-df`, `soft-df`.
 
 pub mod distance_field;
+pub mod ism;
+pub mod shadowmap;
 pub mod sphere_trace;
 pub mod technique;
 
@@ -23,7 +25,7 @@ use glimpse_trace::Visibility;
 
 /// The techniques of this crate, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
-    vec![technique::AoDf::info(), technique::SoftDf::info()]
+    vec![technique::AoDf::info(), technique::SoftDf::info(), shadowmap::LightsShadowMap::info(), ism::LightsIsm::info()]
 }
 
 /// Distance-field settings. `Default` is the paper's DF for AO: 128³, ≤ 64 iterations, built
@@ -41,7 +43,13 @@ pub struct DfParams {
 
 impl Default for DfParams {
     fn default() -> Self {
-        Self { resolution: 128, voxelization: Voxelization::PAPER, jitter: true, origin_offset_cells: 1.5, trace: SphereTraceParams::default() }
+        Self {
+            resolution: 128,
+            voxelization: Voxelization::PAPER,
+            jitter: true,
+            origin_offset_cells: 1.5,
+            trace: SphereTraceParams::default(),
+        }
     }
 }
 
@@ -50,7 +58,11 @@ impl DfParams {
     pub fn read(self, params: &Params) -> Result<Self, ParamError> {
         let resolution = params.u32("resolution", self.resolution, 32, 128)?;
         if ![32, 64, 128].contains(&resolution) {
-            return Err(ParamError::Invalid { key: "resolution".into(), value: resolution.to_string(), message: "must be 32, 64 or 128".into() });
+            return Err(ParamError::Invalid {
+                key: "resolution".into(),
+                value: resolution.to_string(),
+                message: "must be 32, 64 or 128".into(),
+            });
         }
         let voxelization = match params.choice("voxelization", "sampled", &["sampled", "conservative"])?.as_str() {
             "conservative" => Voxelization::Conservative,

@@ -84,17 +84,21 @@ impl Technique for AoDf {
         let (spp, seed, radius, frame_index) = (self.state.settings.spp, self.state.settings.seed, self.radius, ctx.frame_index);
         let offset = df.params.origin_offset_cells * df.cell_size_world();
         stats.rays = stats.time("trace", || {
-            out.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
-                ctx.progress.add(1);
-                if !gbuffer.is_hit(i) {
-                    *px = Vec3::ONE;
-                    return;
+            let width = gbuffer.width as usize;
+            out.pixels.par_chunks_mut(width).enumerate().for_each(|(row, pixels)| {
+                for (x, px) in pixels.iter_mut().enumerate() {
+                    let i = row * width + x;
+                    if !gbuffer.is_hit(i) {
+                        *px = Vec3::ONE;
+                        continue;
+                    }
+                    let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
+                    let basis = Frame::from_z(gbuffer.shading_normal[i]);
+                    let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
+                    let open = (0..spp).filter(|_| !df.blocked(origin, basis.to_world(cosine_hemisphere(rng.next_2d())), radius)).count();
+                    *px = Vec3::splat(open as f32 / spp as f32);
                 }
-                let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
-                let basis = Frame::from_z(gbuffer.shading_normal[i]);
-                let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
-                let open = (0..spp).filter(|_| !df.blocked(origin, basis.to_world(cosine_hemisphere(rng.next_2d())), radius)).count();
-                *px = Vec3::splat(open as f32 / spp as f32);
+                ctx.progress.add(pixels.len() as u64);
             });
             gbuffer.instance.iter().filter(|&&i| i != glimpse_trace::gbuffer::NO_HIT).count() as u64 * spp as u64
         });

@@ -44,7 +44,9 @@ fn check_01_jump_flooding_matches_brute_force() {
         }
     }
     let seeded = seeds.iter().filter(|&&s| s != u32::MAX).count();
-    println!("check 1: JFA+1 on 32³ with 60 seeds: {exact}/{cells} cells at the exact nearest-centre distance, worst overestimate {worst:.3} cells; {seeded} cells have a seed");
+    println!(
+        "check 1: JFA+1 on 32³ with 60 seeds: {exact}/{cells} cells at the exact nearest-centre distance, worst overestimate {worst:.3} cells; {seeded} cells have a seed"
+    );
     assert_eq!(seeded, 32 * 32 * 32);
     assert!(exact as f64 >= 0.999 * cells as f64 && worst < 0.5);
 }
@@ -79,7 +81,8 @@ fn check_03_sphere_tracing_against_exact_rays() {
     let tracer = ExactTracer::build(&frame);
     let g = GBuffer::new(&frame, &tracer, &scene.camera_or_default(1.0), 40, 40);
     for max_steps in [16u32, 64] {
-        let df = DfScene::build(&frame, &DfParams { trace: SphereTraceParams { max_steps, ..Default::default() }, ..Default::default() }, 3, 0);
+        let df =
+            DfScene::build(&frame, &DfParams { trace: SphereTraceParams { max_steps, ..Default::default() }, ..Default::default() }, 3, 0);
         let cell = df.cell_size_world();
         let (mut rays, mut agree, mut clear, mut clear_agree, mut steps, mut exhausted) = (0u64, 0u64, 0u64, 0u64, 0u64, 0u64);
         for i in (0..g.len()).filter(|&i| g.is_hit(i)) {
@@ -123,6 +126,10 @@ fn check_04_equal_storage_with_roma() {
     let scene = glimpse_scene::load("cornell").unwrap();
     let df = DfScene::build(&scene.at(0.0), &DfParams::default(), 0, 0);
     let level0 = df.field.levels[0].len() * 2;
-    println!("check 4: 128³ DF: level 0 {level0} bytes (= ROMA 128², 4²: {} bytes), with mips {} bytes", 16 * 128 * 128 * 16, df.field.memory_bytes());
+    println!(
+        "check 4: 128³ DF: level 0 {level0} bytes (= ROMA 128², 4²: {} bytes), with mips {} bytes",
+        16 * 128 * 128 * 16,
+        df.field.memory_bytes()
+    );
     assert_eq!(level0, 4 << 20);
 }

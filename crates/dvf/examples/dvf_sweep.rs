@@ -31,7 +31,14 @@ fn main() {
     let mut reference = Image::new(w, h);
     let r = exact.render(&ctx, &g, &mut reference).unwrap();
     let exact_ms = sw.elapsed().as_secs_f64() * 1e3;
-    println!("scene {} {}x{} ({} triangles), env-exact rays={rays}: {exact_ms:.0} ms, {:.1} rays/pixel", args[1], w, h, ctx.tracer.triangle_count(), r.rays as f64 / hits as f64);
+    println!(
+        "scene {} {}x{} ({} triangles), env-exact rays={rays}: {exact_ms:.0} ms, {:.1} rays/pixel",
+        args[1],
+        w,
+        h,
+        ctx.tracer.triangle_count(),
+        r.rays as f64 / hits as f64
+    );
     if let Ok(dir) = std::env::var("DVF_OUT") {
         reference.write(&std::path::Path::new(&dir).join("exact.png"), Default::default()).ok();
     }

@@ -9,14 +9,15 @@
 //! of its global id (see [`crate::points`]) and the frame, so the field is deterministic. With
 //! `atomics=sample` (default) a sample's rays are first OR-ed into a local map and the map is
 //! OR-ed into the cell with one atomic per non-zero word; `atomics=ray` issues one atomic OR per
-//! ray as the paper's shader does. `sides=both` (not the paper) also traces each sample's back
-//! hemisphere, for meshes whose winding does not face the viewer (Sponza's walls). OR is associative and commutative, so both give the same bits
+//! ray as the paper's shader does. OR is associative and commutative, so both give the same bits
 //! in any order (tests check it). No dilation (the GPU paper does not mention Algorithm 2's).
+//! `sides=both` (not the paper) also traces each sample's back hemisphere into the same cell,
+//! for meshes whose winding does not face the viewer.
 
+use crate::areas::WorldMesh;
 use crate::grid::{Grid, MAX_WORDS, Masks, octahedral_pixel};
 use crate::points::{PointSampling, Task, point_on_triangle, sample_uv};
 use crate::rays::RaySet;
-use crate::areas::WorldMesh;
 use glimpse_core::{Ray, Rng, Vec3};
 use glimpse_trace::Visibility;
 use rayon::prelude::*;
@@ -66,7 +67,14 @@ pub fn point_sample(mesh: &WorldMesh, normal: Vec3, first_id: u64, t: &Task, i: 
 }
 
 /// Traces one sample's rays into local maps; returns the number of rays traced.
-pub fn trace_sample(vis: &dyn Visibility, p: &PointSample, s: &SampleSettings, resolution: u32, visible: &mut [u64], occluded: &mut [u64]) -> u64 {
+pub fn trace_sample(
+    vis: &dyn Visibility,
+    p: &PointSample,
+    s: &SampleSettings,
+    resolution: u32,
+    visible: &mut [u64],
+    occluded: &mut [u64],
+) -> u64 {
     let set = RaySet::new(p.normal, s.rays, p.rays.shift, s.rotate_about_normal);
     let mut traced = 0;
     for k in 0..s.rays {

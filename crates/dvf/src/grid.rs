@@ -11,7 +11,6 @@
 //! visible and occluded in two flat arrays, instead of one R32_UINT texel per pixel using bits 7
 //! and 6: the same information in 1/16 of the memory, and one atomic word per 64 pixels.
 
-use glimpse_core::sampling::octahedral_encode;
 use glimpse_core::{Aabb, Vec3};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -46,12 +45,21 @@ impl Grid {
     }
 }
 
-/// Pixel index `py·R + px` of unit direction `d` in the R×R octahedral map.
+/// Pixel index `py·R + px` of unit direction `d` in the R×R octahedral map (Cigolle et al.'s
+/// encoding, as `glimpse_core::sampling::octahedral_encode`, written with selects instead of a
+/// branch on the hemisphere: this runs for every ray of every pixel).
 #[inline]
 pub fn octahedral_pixel(d: Vec3, r: u32) -> u32 {
-    let u = octahedral_encode(d);
-    let px = ((u.x * r as f32) as u32).min(r - 1);
-    let py = ((u.y * r as f32) as u32).min(r - 1);
+    let inv_l1 = 1.0 / (d.x.abs() + d.y.abs() + d.z.abs());
+    let (x, y) = (d.x * inv_l1, d.y * inv_l1);
+    let sx = if x >= 0.0 { 1.0 } else { -1.0 };
+    let sy = if y >= 0.0 { 1.0 } else { -1.0 };
+    let lower = d.z < 0.0;
+    let fx = if lower { (1.0 - y.abs()) * sx } else { x };
+    let fy = if lower { (1.0 - x.abs()) * sy } else { y };
+    let half = r as f32 * 0.5;
+    let px = ((fx * half + half) as u32).min(r - 1);
+    let py = ((fy * half + half) as u32).min(r - 1);
     py * r + px
 }
 
@@ -118,6 +126,14 @@ impl Masks {
     pub fn get(&self, cell: usize, pixel: u32, occluded: bool) -> bool {
         let src = if occluded { &self.occluded } else { &self.visible };
         src[cell * self.words_per_mask + pixel as usize / 64].load(Ordering::Relaxed) >> (pixel % 64) & 1 == 1
+    }
+
+    /// Both bits of one pixel: (visible, occluded).
+    #[inline]
+    pub fn bits(&self, cell: usize, pixel: u32) -> (bool, bool) {
+        let i = cell * self.words_per_mask + pixel as usize / 64;
+        let bit = 1u64 << (pixel % 64);
+        (self.visible[i].load(Ordering::Relaxed) & bit != 0, self.occluded[i].load(Ordering::Relaxed) & bit != 0)
     }
 
     /// Set pixels in cell `cell`'s (visible, occluded) maps: N_vis, N_occ.

@@ -14,8 +14,11 @@ pub fn label(n_vis: u32, n_occ: u32) -> u8 {
 
 /// CS5: one label per cell, in parallel over cells.
 pub fn occlusion_labels(masks: &Masks) -> Vec<u8> {
-    (0..masks.cells()).into_par_iter().map(|c| {
-        let (v, o) = masks.counts(c);
-        label(v, o)
-    }).collect()
+    (0..masks.cells())
+        .into_par_iter()
+        .map(|c| {
+            let (v, o) = masks.counts(c);
+            label(v, o)
+        })
+        .collect()
 }

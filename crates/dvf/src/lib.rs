@@ -55,6 +55,10 @@ pub enum Unshadowed {
 pub struct DvfParams {
     /// N_r: rays per point sample and per fragment (`rays`).
     pub rays: u32,
+    /// Rays per point sample in the build (`build_rays`; 0, the default, means N_r as in the
+    /// paper). Deviation when set: with R = 8 a sample's hemisphere covers ~32 pixels, so far fewer
+    /// than 128 rays already reach most of them.
+    pub build_rays: u32,
     /// N_P: requested point samples (`points`).
     pub points: u32,
     pub rounding: Rounding,
@@ -81,6 +85,7 @@ impl Default for DvfParams {
     fn default() -> Self {
         Self {
             rays: 128,
+            build_rays: 0,
             points: 10_000_000,
             rounding: Rounding::Ceil,
             sampling: PointSampling::Hash,
@@ -104,6 +109,7 @@ impl DvfParams {
         let octahedral = p.u32("octahedral", self.octahedral, 1, grid::MAX_RESOLUTION)?;
         Ok(Self {
             rays: p.u32("rays", self.rays, 1, 1 << 16)?,
+            build_rays: p.u32("build_rays", self.build_rays, 0, 1 << 16)?,
             points: p.u32("points", self.points, 0, 1 << 30)?,
             rounding: if p.choice("rounding", "ceil", &["ceil", "round"])? == "round" { Rounding::Round } else { Rounding::Ceil },
             sampling: if p.choice("sampling", "hash", &["hash", "hammersley"])? == "hammersley" {
@@ -164,12 +170,11 @@ impl Dvf {
         });
         let (samples, rays_traced) = stats.time("dvf", || {
             let counts: Vec<u32> = areas.par_iter().map(|&a| points::sample_count(p.points, a, total, p.rounding)).collect();
-            let first_ids: Vec<u64> =
-                prefix.par_iter().enumerate().map(|(k, &s)| points::first_sample_id(p.points, s, total, k)).collect();
+            let first_ids: Vec<u64> = prefix.par_iter().enumerate().map(|(k, &s)| points::first_sample_id(p.points, s, total, k)).collect();
             let tasks = points::tasks(&counts, p.task_points);
             let settings = field::SampleSettings {
                 sampling: p.sampling,
-                rays: p.rays,
+                rays: if p.build_rays == 0 { p.rays } else { p.build_rays },
                 rotate_about_normal: p.rotate_about_normal,
                 seed,
                 frame_index,

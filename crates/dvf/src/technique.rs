@@ -44,8 +44,11 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round unshadowed=sh|rays rotation=cp|normal",
-            create: |_: &Scene, settings, params| Ok(Box::new(EnvDvf::new(settings, params)?)),
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=sh|rays sides=front|both build_rays",
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
+                Ok(Box::new(EnvDvf::new(settings, params)?))
+            },
         }
     }
 
@@ -124,9 +127,9 @@ impl Runtime<'_> {
                 continue;
             }
             let pixel = crate::grid::octahedral_pixel(d, r);
+            let (v, o) = self.dvf.masks.bits(cell, pixel);
             if label == 1 {
                 // Mostly occluded: trace inside the visible region, add what escapes.
-                let (v, o) = (self.dvf.masks.get(cell, pixel, false), self.dvf.masks.get(cell, pixel, true));
                 if v || (self.trace_unknown && !o) {
                     rays += 1;
                     if !self.vis.occluded(&s.spawn(d), f32::INFINITY) {
@@ -138,7 +141,6 @@ impl Runtime<'_> {
                     unshadowed += self.env.radiance(d) * inv;
                 }
                 // Mostly visible: trace inside the occluded region, add what is blocked.
-                let (v, o) = (self.dvf.masks.get(cell, pixel, false), self.dvf.masks.get(cell, pixel, true));
                 if o || (self.trace_unknown && !v) {
                     rays += 1;
                     if self.vis.occluded(&s.spawn(d), f32::INFINITY) {
@@ -176,12 +178,23 @@ impl Technique for EnvDvf {
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
-        let dvf = self.dvf.as_ref().ok_or_else(|| RenderError::Unsupported { technique: "env-dvf".into(), message: "render called before prepare".into() })?;
+        let dvf = self
+            .dvf
+            .as_ref()
+            .ok_or_else(|| RenderError::Unsupported { technique: "env-dvf".into(), message: "render called before prepare".into() })?;
         let mut stats = Stats { memory_bytes: dvf.memory_bytes(), ..Default::default() };
         let env = ctx.frame.scene.environment.as_ref();
         let sh = self.sh.unwrap_or_default();
         let (n, about_normal) = (self.params.rays, self.params.rotate_about_normal);
-        let rt = env.map(|env| Runtime { dvf, vis: &ctx.tracer, env, sh: &sh, unshadowed: self.params.unshadowed, trace_unknown: self.params.trace_unknown, force_label: self.force_label });
+        let rt = env.map(|env| Runtime {
+            dvf,
+            vis: &ctx.tracer,
+            env,
+            sh: &sh,
+            unshadowed: self.params.unshadowed,
+            trace_unknown: self.params.trace_unknown,
+            force_label: self.force_label,
+        });
         stats.rays = stats.time("shade", || {
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng| {
                 let (Some(s), Some(rt)) = (Shading::from_gbuffer(gbuffer, i), rt.as_ref()) else {

@@ -83,7 +83,14 @@ fn inputs(ctx: &FrameContext, p: &DvfParams) -> Inputs {
 }
 
 fn settings(p: &DvfParams, seed: u64) -> SampleSettings {
-    SampleSettings { sampling: p.sampling, rays: p.rays, rotate_about_normal: p.rotate_about_normal, seed, frame_index: 0, both_sides: p.both_sides }
+    SampleSettings {
+        sampling: p.sampling,
+        rays: p.rays,
+        rotate_about_normal: p.rotate_about_normal,
+        seed,
+        frame_index: 0,
+        both_sides: p.both_sides,
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -179,7 +186,15 @@ fn check_05_points_on_triangle() {
             let (b1, b2) = (p.x, p.y);
             let b0 = 1.0 - b1 - b2;
             assert!(b0 >= -1e-6 && b1 >= -1e-6 && b2 >= -1e-6);
-            bins[if b0 > 0.5 { 0 } else if b1 > 0.5 { 1 } else if b2 > 0.5 { 2 } else { 3 }] += 1;
+            bins[if b0 > 0.5 {
+                0
+            } else if b1 > 0.5 {
+                1
+            } else if b2 > 0.5 {
+                2
+            } else {
+                3
+            }] += 1;
         }
         let e = n as f64 / 4.0;
         let chi2: f64 = bins.iter().map(|&b| (b as f64 - e).powi(2) / e).sum();
@@ -271,8 +286,13 @@ fn check_08_atomic_or_is_order_independent() {
     let reversed: Vec<Task> = inp.tasks.iter().rev().copied().collect();
     let reversed_serial = build(&reversed, Atomics::PerSample, false).0;
     let set_bits: u32 = reference.0.iter().chain(&reference.1).map(|w| w.count_ones()).sum();
-    println!("{} tasks, {rays} rays, {set_bits} bits set; per-ray parallel, shuffled serial, reversed serial identical: {} {} {}",
-        inp.tasks.len(), per_ray_parallel == reference, shuffled_serial == reference, reversed_serial == reference);
+    println!(
+        "{} tasks, {rays} rays, {set_bits} bits set; per-ray parallel, shuffled serial, reversed serial identical: {} {} {}",
+        inp.tasks.len(),
+        per_ray_parallel == reference,
+        shuffled_serial == reference,
+        reversed_serial == reference
+    );
     assert!(set_bits > 0);
     assert_eq!(per_ray_parallel, reference);
     assert_eq!(shuffled_serial, reference);
@@ -343,7 +363,9 @@ fn check_10b_label_visible_with_full_occluded_mask() {
         t.render(&ctx, &g, &mut img).unwrap();
         let worst = img.pixels.iter().zip(&reference.pixels).map(|(a, b)| (*a - *b).abs().max_element()).fold(0.0f32, f32::max);
         let e = rmse(&img, &reference, None).unwrap();
-        println!("unshadowed={unshadowed}: worst |E − brute| = {worst:.2e}, RMSE {e:.5} (rays: same-ray identity, sh: the SH term's error)");
+        println!(
+            "unshadowed={unshadowed}: worst |E − brute| = {worst:.2e}, RMSE {e:.5} (rays: same-ray identity, sh: the SH term's error)"
+        );
         if unshadowed == "rays" {
             assert!(worst < 1e-5);
         }
@@ -382,7 +404,10 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
             checked += 1;
         }
     }
-    println!("{checked} fragments at sample points: {} in occluded cells (bit-exact), {} in visible cells (worst |E − brute| {worst:.2e})", exact_labels[1], exact_labels[0]);
+    println!(
+        "{checked} fragments at sample points: {} in occluded cells (bit-exact), {} in visible cells (worst |E − brute| {worst:.2e})",
+        exact_labels[1], exact_labels[0]
+    );
     assert!(exact_labels[0] > 0 && exact_labels[1] > 0, "both branches exercised");
     assert!(worst < 1e-5);
 }
@@ -390,8 +415,10 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
 #[test]
 fn check_10d_unoccluded_plane_traces_nothing() {
     let c = 0.8;
-    let plane = quad_facing([Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)], Vec3::Y);
-    let scene = scene_of(vec![plane], Environment::constant(Vec3::splat(c)), Camera::look_at(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, Vec3::Y, 40.0));
+    let plane =
+        quad_facing([Vec3::new(-1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, -1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(-1.0, 0.0, 1.0)], Vec3::Y);
+    let scene =
+        scene_of(vec![plane], Environment::constant(Vec3::splat(c)), Camera::look_at(Vec3::new(0.0, 2.0, 2.0), Vec3::ZERO, Vec3::Y, 40.0));
     let ctx = FrameContext::new(&scene, 0.0, 24, 24);
     let g = ctx.gbuffer();
     let mut t = dvf(1, &["rays=32", "points=500", "grid=4"]);
@@ -400,8 +427,14 @@ fn check_10d_unoccluded_plane_traces_nothing() {
     let (_, occ) = field.masks.snapshot();
     let hit_px: Vec<usize> = (0..img.pixels.len()).filter(|&i| g.is_hit(i)).collect();
     let worst = hit_px.iter().map(|&i| (img.pixels[i] - Vec3::splat(0.5 * c)).abs().max_element()).fold(0.0f32, f32::max);
-    println!("plane: {} occluded cells, {} occluded bits, build rays {}, runtime rays {}, worst |L − ρc| {worst:.2e} over {} pixels",
-        field.occluded_cells(), occ.iter().map(|w| w.count_ones()).sum::<u32>(), prep.rays, rend.rays, hit_px.len());
+    println!(
+        "plane: {} occluded cells, {} occluded bits, build rays {}, runtime rays {}, worst |L − ρc| {worst:.2e} over {} pixels",
+        field.occluded_cells(),
+        occ.iter().map(|w| w.count_ones()).sum::<u32>(),
+        prep.rays,
+        rend.rays,
+        hit_px.len()
+    );
     assert_eq!(field.occluded_cells(), 0);
     assert!(occ.iter().all(|&w| w == 0));
     assert_eq!(rend.rays, 0);
@@ -429,7 +462,12 @@ fn check_10e_enclosed_point_is_black() {
     let field = t.dvf.as_ref().unwrap();
     let (vis, _) = field.masks.snapshot();
     let max = img.pixels.iter().map(|p| p.max_element()).fold(0.0f32, f32::max);
-    println!("enclosed: labels {:?}, visible bits {}, runtime rays {}, max radiance {max}", field.labels, vis.iter().map(|w| w.count_ones()).sum::<u32>(), rend.rays);
+    println!(
+        "enclosed: labels {:?}, visible bits {}, runtime rays {}, max radiance {max}",
+        field.labels,
+        vis.iter().map(|w| w.count_ones()).sum::<u32>(),
+        rend.rays
+    );
     assert_eq!(field.labels, vec![1]);
     assert!(vis.iter().all(|&w| w == 0));
     assert_eq!(rend.rays, 0);

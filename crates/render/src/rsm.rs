@@ -248,7 +248,8 @@ impl Rsm {
         let Some((i, depth)) = self.project(p) else {
             return Vec3::ZERO;
         };
-        if !(depth <= self.depth[i] + bias) || self.normal[i].dot(viewer - self.position[i]) <= 0.0 {
+        let in_shadow = depth.partial_cmp(&(self.depth[i] + bias)) != Some(std::cmp::Ordering::Less);
+        if in_shadow || self.normal[i].dot(viewer - self.position[i]) <= 0.0 {
             return Vec3::ZERO;
         }
         self.radiance(i)

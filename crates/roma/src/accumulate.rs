@@ -32,7 +32,9 @@ impl Accumulator {
     pub fn blend(&mut self, frame_index: u32, image: &mut Image) {
         let restart = match &self.history {
             None => true,
-            Some(h) => frame_index == 0 || frame_index != self.last_index.wrapping_add(1) || h.width != image.width || h.height != image.height,
+            Some(h) => {
+                frame_index == 0 || frame_index != self.last_index.wrapping_add(1) || h.width != image.width || h.height != image.height
+            }
         };
         self.last_index = frame_index;
         if restart || self.window <= 1 {

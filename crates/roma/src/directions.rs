@@ -52,7 +52,7 @@ impl CandidateSet {
 
     /// The candidate of `d`'s stratum and the sign to trace it with: the snapped direction is
     /// `sign · dirs[k]`.
-    #[inline]
+    #[inline(always)]
     pub fn select(&self, d: Vec3) -> (usize, f32) {
         let local = self.hemisphere.to_local(d);
         // Branch-free: the other hemisphere's rays use −d (a random 50% branch costs more).
@@ -81,7 +81,7 @@ pub fn square_to_hemisphere(u: Vec2) -> Vec3 {
 }
 
 /// Inverse of [`square_to_hemisphere`] for a unit direction with `z ≥ 0`.
-#[inline]
+#[inline(always)]
 pub fn hemisphere_to_square(d: Vec3) -> Vec2 {
     // Undo the lift: r = √(1 − z); the disk point has the direction's azimuth, so the ratio of
     // its coordinates is y/x and no normalization is needed.

@@ -70,7 +70,11 @@ impl RomaParams {
     pub fn read(self, params: &Params, with_dda: bool) -> Result<Self, ParamError> {
         let resolution = params.u32("resolution", self.resolution, 32, 128)?;
         if ![32, 64, 128].contains(&resolution) {
-            return Err(ParamError::Invalid { key: "resolution".into(), value: resolution.to_string(), message: "must be 32, 64 or 128".into() });
+            return Err(ParamError::Invalid {
+                key: "resolution".into(),
+                value: resolution.to_string(),
+                message: "must be 32, 64 or 128".into(),
+            });
         }
         let default = if self.voxelization == Voxelization::Conservative { "conservative" } else { "sampled" };
         let voxelization = match params.choice("voxelization", default, &["sampled", "conservative"])?.as_str() {

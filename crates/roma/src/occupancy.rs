@@ -210,7 +210,13 @@ fn cell_span(lo: f32, hi: f32, r: u32) -> Option<(u32, u32)> {
 /// Conservative rasterization of one triangle (cell coordinates) along its dominant axis.
 fn conservative_triangle<W: Word>(map: &mut OccupancyMap<W>, q: [Vec3; 3]) {
     let n = (q[1] - q[0]).cross(q[2] - q[0]).abs();
-    let axis = if n.x >= n.y && n.x >= n.z { 0 } else if n.y >= n.z { 1 } else { 2 };
+    let axis = if n.x >= n.y && n.x >= n.z {
+        0
+    } else if n.y >= n.z {
+        1
+    } else {
+        2
+    };
     let (cu, cv, cw) = ((axis + 1) % 3, (axis + 2) % 3, axis);
     let tri = Poly { v: [q[0], q[1], q[2], Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO, Vec3::ZERO], n: 3 };
     let r = W::BITS;

@@ -129,22 +129,27 @@ pub fn ambient_occlusion(
     out: &mut Image,
 ) -> u64 {
     let offset = roma.cell_size_world() * crate::with_maps!(roma, m => m.origin_offset_cells);
-    out.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
-        progress.add(1);
-        if !gbuffer.is_hit(i) {
-            *px = Vec3::ONE;
-            return;
+    let width = gbuffer.width as usize;
+    // One row per task: the progress counter is shared, so it is bumped once per row.
+    out.pixels.par_chunks_mut(width).enumerate().for_each(|(row, pixels)| {
+        for (x, px) in pixels.iter_mut().enumerate() {
+            let i = row * width + x;
+            if !gbuffer.is_hit(i) {
+                *px = Vec3::ONE;
+                continue;
+            }
+            let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
+            let basis = Frame::from_z(gbuffer.shading_normal[i]);
+            let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
+            let open = (0..spp)
+                .filter(|_| {
+                    let (k, sign) = roma.select(basis.to_world(cosine_hemisphere(rng.next_2d())));
+                    !roma.any_hit_snapped(k, sign, origin, radius)
+                })
+                .count();
+            *px = Vec3::splat(open as f32 / spp as f32);
         }
-        let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
-        let basis = Frame::from_z(gbuffer.shading_normal[i]);
-        let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
-        let open = (0..spp)
-            .filter(|_| {
-                let (k, sign) = roma.select(basis.to_world(cosine_hemisphere(rng.next_2d())));
-                !roma.any_hit_snapped(k, sign, origin, radius)
-            })
-            .count();
-        *px = Vec3::splat(open as f32 / spp as f32);
+        progress.add(pixels.len() as u64);
     });
     gbuffer.instance.iter().filter(|&&i| i != glimpse_trace::gbuffer::NO_HIT).count() as u64 * spp as u64
 }
@@ -241,6 +246,9 @@ pub fn shadow_blocked(roma: &Roma, from: Vec3, to: Vec3, snap: bool, dda_steps: 
     }
 }
 
+/// Lights (punctual lights + emitting instances) `gi-roma` accepts: one 512² RSM each per frame.
+pub const MAX_RSM_LIGHTS: usize = 16;
+
 /// `gi-roma`.
 pub struct GiRoma {
     state: RomaState,
@@ -257,11 +265,21 @@ impl GiRoma {
             family: "global illumination",
             reference: Some("gi-exact"),
             description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light)",
-            create: |_: &Scene, settings, params| Ok(Box::new(GiRoma::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| Ok(Box::new(GiRoma::new(scene, settings, params)?)),
         }
     }
 
-    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+    pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        // One RSM per punctual light and per emitting instance (the paper: one per spot/point
+        // light); a many-light scene would need thousands of 512² maps per frame.
+        let emitting = scene.instances.iter().filter(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive()).count();
+        let maps = scene.lights.len() + emitting;
+        if maps > MAX_RSM_LIGHTS {
+            return Err(RenderError::Unsupported {
+                technique: "gi-roma".into(),
+                message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
+            });
+        }
         let state = RomaState::new(settings, params, RomaParams::default(), false)?;
         let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
         Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })

@@ -79,7 +79,8 @@ fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
 /// Twelve spheres of various sizes on a ground quad.
 fn sphere_field() -> Scene {
     let mut rng = Rng::new(11, 3);
-    let mut meshes = vec![quad("ground", [Vec3::new(-2.0, 0.0, -2.0), Vec3::new(-2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, -2.0)])];
+    let mut meshes =
+        vec![quad("ground", [Vec3::new(-2.0, 0.0, -2.0), Vec3::new(-2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, 2.0), Vec3::new(2.0, 0.0, -2.0)])];
     for _ in 0..12 {
         let r = 0.1 + 0.35 * rng.next_f32();
         let c = Vec3::new(rng.next_f32() * 3.2 - 1.6, r + rng.next_f32() * 0.3, rng.next_f32() * 3.2 - 1.6);
@@ -180,7 +181,13 @@ fn check_02_closest_hit_formulas() {
     // Slice 0 occupied (the sign bit): a signed `U > 0` would report a miss.
     for (u, name) in [(0x8000_0000u32, "0x80000000"), (0xFFFF_FFFF, "0xFFFFFFFF")] {
         let ur = range_bits(u, 0, 31);
-        println!("  U = {name}: AnyHit {}, ClosestHit(+z) {:?}, as i32 {} (> 0: {})", any_hit(ur), closest_hit_slices(ur, 31, true), ur as i32, (ur as i32) > 0);
+        println!(
+            "  U = {name}: AnyHit {}, ClosestHit(+z) {:?}, as i32 {} (> 0: {})",
+            any_hit(ur),
+            closest_hit_slices(ur, 31, true),
+            ur as i32,
+            (ur as i32) > 0
+        );
         assert!(any_hit(ur));
         assert_eq!(closest_hit_slices(ur, 31, true), Some(0.5));
     }
@@ -285,7 +292,13 @@ fn check_06_snapped_trace_equals_column_march() {
         // Independent march along the column of the origin's texel.
         let (x, y) = (q.x as u32, q.y as u32);
         let z0 = q.z as i32;
-        let z_end = if t_max.is_finite() { (q.z + sign * t_max / grid.cell_size_world).floor().clamp(0.0, 63.0) as i32 } else if sign > 0.0 { 63 } else { 0 };
+        let z_end = if t_max.is_finite() {
+            (q.z + sign * t_max / grid.cell_size_world).floor().clamp(0.0, 63.0) as i32
+        } else if sign > 0.0 {
+            63
+        } else {
+            0
+        };
         let step = if sign > 0.0 { 1 } else { -1 };
         let mut first = None;
         let mut j = z0;
@@ -314,7 +327,9 @@ fn check_06_snapped_trace_equals_column_march() {
         closest_ok += same as u64;
         rays += 1;
     }
-    println!("check 6: {rays} snapped rays on OMs of the sphere field (64³, 4²): any-hit agrees {any_ok}/{rays}, closest-hit {closest_ok}/{rays} with the column march");
+    println!(
+        "check 6: {rays} snapped rays on OMs of the sphere field (64³, 4²): any-hit agrees {any_ok}/{rays}, closest-hit {closest_ok}/{rays} with the column march"
+    );
     assert_eq!((any_ok, closest_ok), (rays, rays));
 }
 
@@ -339,7 +354,8 @@ fn check_07_stratum_selection() {
             }
         }
         let expected = 2.0 * PI as f64 / (n * n) as f64;
-        let worst = counts.iter().map(|&c| ((c as f64 / (grid_n * grid_n) as f64 * 2.0 * PI as f64) / expected - 1.0).abs()).fold(0.0, f64::max);
+        let worst =
+            counts.iter().map(|&c| ((c as f64 / (grid_n * grid_n) as f64 * 2.0 * PI as f64) / expected - 1.0).abs()).fold(0.0, f64::max);
         println!("check 7: n = {n}: every stratum covers 2π/n² = {expected:.5} sr within {:.2e} relative", worst);
         assert!(worst < 1e-3);
 
@@ -392,7 +408,10 @@ fn check_08_storage() {
         let maps = with_maps!(&roma, m => m.maps.len() * std::mem::size_of_val(&m.maps[0]));
         let formula = (n * n * r * r * r / 8) as usize;
         let df = (r * r * r * 2) as usize;
-        println!("check 8: {r}², {n}²: ROMA {maps} bytes = n²·R²·B/8 = {formula}; a {r}³ float16 DF: {df} bytes ({:.0}×)", maps as f64 / df as f64);
+        println!(
+            "check 8: {r}², {n}²: ROMA {maps} bytes = n²·R²·B/8 = {formula}; a {r}³ float16 DF: {df} bytes ({:.0}×)",
+            maps as f64 / df as f64
+        );
         assert_eq!(maps, formula);
         if (r, n) == (128, 4) {
             assert_eq!(maps, 4 << 20);
@@ -417,11 +436,12 @@ fn check_09_bom_coverage() {
             .iter()
             .flat_map(|t| {
                 let k = if tris.len() > 5000 { 2 } else { 200 };
-                (0..k).map(|_| {
-                    let b = uniform_triangle(rng.next_2d());
-                    t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y
-                })
-                .collect::<Vec<_>>()
+                (0..k)
+                    .map(|_| {
+                        let b = uniform_triangle(rng.next_2d());
+                        t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y
+                    })
+                    .collect::<Vec<_>>()
             })
             .collect();
         let coverage = |mode| {
@@ -544,7 +564,10 @@ fn check_11_closest_hit_distance_error() {
 #[test]
 fn check_12_self_occlusion() {
     // An isolated plane and an isolated sphere: every ray leaving them is unoccluded exactly.
-    let plane = mesh_scene("plane", vec![quad("p", [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)])]);
+    let plane = mesh_scene(
+        "plane",
+        vec![quad("p", [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)])],
+    );
     let ball = mesh_scene("sphere", vec![sphere(Vec3::ZERO, 1.0, 48, 96)]);
     let bins = [0.0f32, 0.05, 0.1, 0.2, 0.4, 0.7, 1.0];
     for (scene, voxelization) in [(&plane, Voxelization::Conservative), (&ball, Voxelization::Conservative), (&ball, Voxelization::PAPER)] {
@@ -555,7 +578,10 @@ fn check_12_self_occlusion() {
             let mut rng = Rng::new(12, frame_index as u64);
             for _ in 0..40_000 {
                 let (p, n) = if scene.name == "plane" {
-                    (Vec3::new(rng.next_f32() * 1.6 - 0.8, 0.0, rng.next_f32() * 1.6 - 0.8), if rng.below(2) == 0 { Vec3::Y } else { -Vec3::Y })
+                    (
+                        Vec3::new(rng.next_f32() * 1.6 - 0.8, 0.0, rng.next_f32() * 1.6 - 0.8),
+                        if rng.below(2) == 0 { Vec3::Y } else { -Vec3::Y },
+                    )
                 } else {
                     let n = uniform_sphere(rng.next_2d());
                     (n, n)
@@ -572,7 +598,11 @@ fn check_12_self_occlusion() {
                 false_occ[bin].0 += roma.any_hit_snapped(k, sign, p + n * 1.5 * cell, f32::INFINITY) as u64;
             }
         }
-        let line: Vec<String> = bins.windows(2).zip(&false_occ).map(|(w, (o, t))| format!("n·d∈[{:.2},{:.2}): {:.1}%", w[0], w[1], 100.0 * *o as f64 / (*t).max(1) as f64)).collect();
+        let line: Vec<String> = bins
+            .windows(2)
+            .zip(&false_occ)
+            .map(|(w, (o, t))| format!("n·d∈[{:.2},{:.2}): {:.1}%", w[0], w[1], 100.0 * *o as f64 / (*t).max(1) as f64))
+            .collect();
         println!("check 12: {} ({voxelization:?}) false occlusion after the 1.5-cell offset: {}", scene.name, line.join(", "));
         // A measurement (the paper admits over-darkening); only steep rays must be clean.
         let (o, t) = false_occ[5];
@@ -615,7 +645,10 @@ fn check_13_ao_converges_over_frames() {
     exact.render(&ctx, &ctx.gbuffer(), &mut reference).unwrap();
 
     let default = ao_roma_errors(&scene, &["accumulate=16"], 2, 16, &reference, size);
-    println!("check 13: cornell ao-roma (128², 4², 2 spp/frame) MSE vs ao-exact after K frames: K=1 {:.5}, K=4 {:.5}, K=16 {:.5}", default[0], default[3], default[15]);
+    println!(
+        "check 13: cornell ao-roma (128², 4², 2 spp/frame) MSE vs ao-exact after K frames: K=1 {:.5}, K=4 {:.5}, K=16 {:.5}",
+        default[0], default[3], default[15]
+    );
     assert!(default[15] < default[3] && default[3] < default[0], "error decreases with accumulated frames");
 
     let n4 = ao_roma_errors(&scene, &["accumulate=16", "resolution=64", "n=4"], 2, 16, &reference, size);
@@ -684,7 +717,10 @@ fn check_14_snapping_policy() {
         }
     }
     let (s, u, e) = (ao_snapped / count as f64, ao_unsnapped / count as f64, ao_exact / count as f64);
-    println!("  cornell mean AO over {count} rays in 6 frames: snapped {s:.4}, un-snapped {u:.4}, exact {e:.4} (snap − no-snap: {:+.4})", s - u);
+    println!(
+        "  cornell mean AO over {count} rays in 6 frames: snapped {s:.4}, un-snapped {u:.4}, exact {e:.4} (snap − no-snap: {:+.4})",
+        s - u
+    );
     assert!((s - u).abs() < 0.03, "snapping is nearly free for AO (Fig. 8a)");
 }
 
@@ -694,7 +730,10 @@ fn check_14_snapping_policy() {
 #[test]
 fn check_15_hard_shadow_leakage() {
     // A floor, a thin plate hovering `gap` cells above it, a point light above the plate.
-    let base = mesh_scene("leak", vec![quad("floor", [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)])]);
+    let base = mesh_scene(
+        "leak",
+        vec![quad("floor", [Vec3::new(-1.0, 0.0, -1.0), Vec3::new(-1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, 1.0), Vec3::new(1.0, 0.0, -1.0)])],
+    );
     let cell_probe = build(&base, RomaParams::default(), 0).cell_size_world();
     for gap_cells in [0.8f32, 4.0] {
         let mut scene = base.clone();
@@ -720,7 +759,10 @@ fn check_15_hard_shadow_leakage() {
             }
         }
         let rate = leaked as f64 / shadowed as f64;
-        println!("check 15: plate {gap_cells} cells above the floor, point light above: {:.1}% of {shadowed} exactly shadowed floor points are lit by ROMA (un-snapped)", 100.0 * rate);
+        println!(
+            "check 15: plate {gap_cells} cells above the floor, point light above: {:.1}% of {shadowed} exactly shadowed floor points are lit by ROMA (un-snapped)",
+            100.0 * rate
+        );
         if gap_cells < 1.5 {
             assert!(rate > 0.5, "a plate inside the 1.5-cell origin offset leaks: expected, documented as unsupported");
         } else {

@@ -8,20 +8,28 @@
 //!
 //! SCENE: built-in names or scene files; by default `cornell` and the Stanford bunny from
 //! `../shared` (skipped if absent or unloadable). Without the features only our tracer runs.
-//! Every backend traces the rays in the same order on the calling thread; each timing is the
-//! best of several passes, and every backend's hit count is printed so disagreements show.
+//! Every backend traces all the rays in the same order on the calling thread. Timings are taken
+//! in rounds, each round one full pass of every query (so a busy machine slows all backends
+//! alike), and each query's best pass is kept; every backend's hit count is printed so
+//! disagreements show. `GLIMPSE_MEASURE_MS` sets the minimum measuring time per query (default
+//! 1500).
 
 use glimpse_core::Ray;
 use glimpse_scene::Scene;
-use glimpse_trace::{ClosestHit, ExactTracer, Visibility, rays};
+#[cfg(feature = "embree")]
+use glimpse_trace::{ClosestHit, Visibility};
+use glimpse_trace::{ExactTracer, rays};
 use std::hint::black_box;
 use std::time::{Duration, Instant};
 
 const WIDTH: u32 = 256;
 const HEIGHT: u32 = 256;
 const RAYS_PER_PIXEL: u32 = 4;
-/// Each measurement repeats passes over the ray set for at least this long and keeps the best.
-const MIN_MEASURE: Duration = Duration::from_millis(600);
+/// Rounds go on until every query has had at least this much time and five passes.
+fn min_measure() -> Duration {
+    let ms = std::env::var("GLIMPSE_MEASURE_MS").ok().and_then(|v| v.parse().ok()).unwrap_or(1500);
+    Duration::from_millis(ms)
+}
 
 fn main() {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -30,7 +38,10 @@ fn main() {
     } else {
         args
     };
-    println!("single thread, {WIDTH}x{HEIGHT} GBuffer, {RAYS_PER_PIXEL} AO rays per hit pixel; Mrays/s, best pass of >= {MIN_MEASURE:?}");
+    println!(
+        "single thread, {WIDTH}x{HEIGHT} GBuffer, {RAYS_PER_PIXEL} AO rays per hit pixel; Mrays/s, best full pass of >= {:?} per query",
+        min_measure()
+    );
     for spec in specs {
         match glimpse_scene::load(&spec) {
             Ok(scene) => compare(&short_name(&spec), &scene),
@@ -43,11 +54,16 @@ fn short_name(spec: &str) -> String {
     std::path::Path::new(spec).file_stem().map_or(spec.into(), |s| s.to_string_lossy().into_owned())
 }
 
+/// A query that answers true (occluded, or hit) or false.
+type Query<'a> = Box<dyn Fn(&Ray, f32) -> bool + 'a>;
+/// A closest-hit query: the distance to the hit.
+type Distance<'a> = Box<dyn Fn(&Ray, f32) -> Option<f32> + 'a>;
+
 /// A backend under test: its name and its any-hit and closest-hit queries.
 struct Backend<'a> {
     name: &'static str,
-    occluded: Box<dyn Fn(&Ray, f32) -> bool + 'a>,
-    closest: Box<dyn Fn(&Ray, f32) -> Option<f32> + 'a>,
+    occluded: Query<'a>,
+    closest: Distance<'a>,
 }
 
 fn compare(name: &str, scene: &Scene) {
@@ -67,6 +83,7 @@ fn compare(name: &str, scene: &Scene) {
     #[cfg(feature = "obvhs-compare")]
     let ob = obvhs_backends::Obvhs::build(&frame);
 
+    #[cfg_attr(not(any(feature = "embree", feature = "obvhs-compare")), allow(unused_mut, clippy::useless_vec))]
     let mut backends = vec![Backend {
         name: "ours (ExactTracer)",
         occluded: Box::new(|r, t| ours.occluded(r, t)),
@@ -89,37 +106,49 @@ fn compare(name: &str, scene: &Scene) {
     for (label, radius) in [("r = 10% diag", 0.1 * diagonal), ("r = inf", f32::INFINITY)] {
         let rays = rays::ao_rays_from(&gbuffer, RAYS_PER_PIXEL, radius, 1);
         println!("-- AO rays, {label}: {} rays", rays.len());
+        let queries: Vec<Query> = backends
+            .iter()
+            .flat_map(|b| {
+                [Box::new(|r: &Ray, t: f32| (b.occluded)(r, t)) as Query, Box::new(|r: &Ray, t: f32| (b.closest)(r, t).is_some())]
+            })
+            .collect();
+        let results = measure(&rays, &queries);
         // Ours is first: every other line says how many times faster or slower ours is.
-        let mut ours_rates: Option<(f64, f64)> = None;
-        for b in &backends {
-            let (any, occluded) = measure(&rays, |r, t| (b.occluded)(r, t));
-            let (closest, hit) = measure(&rays, |r, t| (b.closest)(r, t).is_some());
-            let ratio = match ours_rates {
-                Some((oa, oc)) => format!("  ours/this: any-hit {:.2}, closest-hit {:.2}", oa / any, oc / closest),
-                None => String::new(),
+        let ours_rates = (results[0].0, results[1].0);
+        for (i, b) in backends.iter().enumerate() {
+            let ((any, occluded), (closest, hit)) = (results[2 * i], results[2 * i + 1]);
+            let ratio = if i == 0 {
+                String::new()
+            } else {
+                format!("  ours/this: any-hit {:.2}, closest-hit {:.2}", ours_rates.0 / any, ours_rates.1 / closest)
             };
             println!("  {:<40} any-hit {any:>6.2} ({occluded} occluded)  closest-hit {closest:>6.2} ({hit} hit){ratio}", b.name);
-            ours_rates.get_or_insert((any, closest));
         }
     }
 }
 
-/// Best throughput (Mrays/s) over repeated single-thread passes, and the number of `true`s.
-fn measure(rays: &[(Ray, f32)], query: impl Fn(&Ray, f32) -> bool) -> (f64, usize) {
-    let pass = || {
+/// Per query: its best throughput (Mrays/s) over full single-thread passes, and its number of
+/// `true`s. Passes go round-robin over the queries until each has had `min_measure()`.
+fn measure(rays: &[(Ray, f32)], queries: &[Query]) -> Vec<(f64, usize)> {
+    let pass = |q: &Query| {
         let t = Instant::now();
-        let n = rays.iter().filter(|(r, t_max)| query(black_box(r), *t_max)).count();
+        let n = rays.iter().filter(|(r, t_max)| q(black_box(r), *t_max)).count();
         (t.elapsed(), black_box(n))
     };
-    let (_, count) = pass(); // warm caches
-    let (mut best, mut total) = (Duration::MAX, Duration::ZERO);
-    while total < MIN_MEASURE {
-        let (d, n) = pass();
-        assert_eq!(n, count, "a backend answered differently on the same rays");
-        best = best.min(d);
-        total += d;
+    let counts: Vec<usize> = queries.iter().map(|q| pass(q).1).collect(); // also warms caches
+    let mut best = vec![Duration::MAX; queries.len()];
+    let mut total = vec![Duration::ZERO; queries.len()];
+    let mut rounds = 0;
+    while rounds < 5 || total.iter().any(|&t| t < min_measure()) {
+        for (i, q) in queries.iter().enumerate() {
+            let (d, n) = pass(q);
+            assert_eq!(n, counts[i], "a backend answered differently on the same rays");
+            best[i] = best[i].min(d);
+            total[i] += d;
+        }
+        rounds += 1;
     }
-    (rays.len() as f64 / best.as_secs_f64() / 1e6, count)
+    best.iter().zip(counts).map(|(b, n)| (rays.len() as f64 / b.as_secs_f64() / 1e6, n)).collect()
 }
 
 fn ms(d: Duration) -> f64 {
@@ -193,9 +222,7 @@ mod obvhs_backends {
                     closest: Box::new(move |r, t| {
                         let p = PreparedRay::new(r);
                         let mut hit = RayHit::none();
-                        self.cwbvh
-                            .ray_traverse(oray(r, t), &mut hit, |ray, i| watertight(&self.cw_tris, &p, i, ray.tmax))
-                            .then_some(hit.t)
+                        self.cwbvh.ray_traverse(oray(r, t), &mut hit, |ray, i| watertight(&self.cw_tris, &p, i, ray.tmax)).then_some(hit.t)
                     }),
                 },
                 Backend {
@@ -215,9 +242,7 @@ mod obvhs_backends {
                     closest: Box::new(move |r, t| {
                         let p = PreparedRay::new(r);
                         let mut hit = RayHit::none();
-                        self.bvh2
-                            .ray_traverse(oray(r, t), &mut hit, |ray, i| watertight(&self.bvh2_tris, &p, i, ray.tmax))
-                            .then_some(hit.t)
+                        self.bvh2.ray_traverse(oray(r, t), &mut hit, |ray, i| watertight(&self.bvh2_tris, &p, i, ray.tmax)).then_some(hit.t)
                     }),
                 },
             ]

@@ -136,11 +136,8 @@ pub struct Bvh4Node {
 pub const EMPTY_SLOT: u32 = u32::MAX;
 
 impl Bvh4Node {
-    const EMPTY: Bvh4Node = Bvh4Node {
-        planes: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3],
-        child: [EMPTY_SLOT; WIDTH],
-        count: [0; WIDTH],
-    };
+    const EMPTY: Bvh4Node =
+        Bvh4Node { planes: [[[f32::INFINITY; WIDTH], [f32::NEG_INFINITY; WIDTH]]; 3], child: [EMPTY_SLOT; WIDTH], count: [0; WIDTH] };
 
     fn set_child(&mut self, slot: usize, b: Aabb, child: u32, count: u32) {
         for axis in 0..3 {
@@ -183,9 +180,9 @@ fn collapse(bvh: &Bvh, root: usize, out: &mut Vec<Bvh4Node>) -> u32 {
             .filter(|&k| !bvh.nodes[kids[k]].is_leaf())
             .max_by(|&a, &b| bvh.nodes[kids[a]].bounds().half_area().total_cmp(&bvh.nodes[kids[b]].bounds().half_area()));
         let Some(k) = open else { break };
-        let n = bvh.nodes[kids[k]];
-        kids[k] = kids[k] + 1;
-        kids[len] = n.first_or_right as usize;
+        // Its left child (the next node) takes its slot; its right child a new one.
+        kids[len] = bvh.nodes[kids[k]].first_or_right as usize;
+        kids[k] += 1;
         len += 1;
     }
     let index = out.len();
@@ -386,7 +383,12 @@ mod tests {
             a.sort_by_key(key);
             b.sort_by_key(key);
             assert_eq!(a, b, "{n} boxes: the wide tree's leaves differ");
-            assert!(wide.nodes.len() <= bvh.nodes.len() / 2 + 1, "{n} boxes: {} wide nodes for {} binary", wide.nodes.len(), bvh.nodes.len());
+            assert!(
+                wide.nodes.len() <= bvh.nodes.len() / 2 + 1,
+                "{n} boxes: {} wide nodes for {} binary",
+                wide.nodes.len(),
+                bvh.nodes.len()
+            );
         }
     }
 

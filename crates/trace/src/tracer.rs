@@ -236,26 +236,44 @@ impl ExactTracer {
             let d = e.world_to_object.transform_vector3(ray.dir);
             PreparedRay::new(&Ray::new(o, d))
         };
-        let mut stop = false;
-        traverse::<ANY>(&blas.wide, &local, *t_max, |first, count| {
-            let mut step = Step::Continue;
-            for i in first..first + count {
-                if let Some((t, b1, b2)) = local.intersect_triangle(&blas.triangles[i], *t_max) {
-                    let id = blas.ids[i];
-                    let instance = if id.instance == FROM_ENTRY { e.instance } else { id.instance };
-                    *t_max = t;
-                    *best = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
-                    if ANY {
-                        stop = true;
-                        return Step::Stop;
-                    }
-                    step = Step::Shrink(t);
-                }
-            }
-            step
-        });
-        stop
+        // The triangle test's copy for the ray's major axis, chosen once per ray.
+        match local.major_axis() {
+            0 => trace_blas::<ANY, 0>(blas, e.instance, &local, t_max, best),
+            1 => trace_blas::<ANY, 1>(blas, e.instance, &local, t_max, best),
+            _ => trace_blas::<ANY, 2>(blas, e.instance, &local, t_max, best),
+        }
     }
+}
+
+/// Traces `ray` (whose major axis is `KZ`) through one BLAS, updating `best` and `t_max`; true
+/// when an any-hit query is answered. `instance` stands in for ids marked [`FROM_ENTRY`].
+#[inline(always)]
+fn trace_blas<const ANY: bool, const KZ: usize>(
+    blas: &Blas,
+    instance: u32,
+    ray: &PreparedRay,
+    t_max: &mut f32,
+    best: &mut Option<Hit>,
+) -> bool {
+    let mut stop = false;
+    traverse::<ANY>(&blas.wide, ray, *t_max, |first, count| {
+        let mut step = Step::Continue;
+        for i in first..first + count {
+            if let Some((t, b1, b2)) = ray.intersect_along::<KZ>(&blas.triangles[i], *t_max) {
+                let id = blas.ids[i];
+                let instance = if id.instance == FROM_ENTRY { instance } else { id.instance };
+                *t_max = t;
+                *best = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
+                if ANY {
+                    stop = true;
+                    return Step::Stop;
+                }
+                step = Step::Shrink(t);
+            }
+        }
+        step
+    });
+    stop
 }
 
 /// Object-space triangles of a mesh at the frame's time, and their ids.

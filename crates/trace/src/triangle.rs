@@ -37,7 +37,8 @@ impl PreparedRay {
         // here is two-sided, and a swap only negates u, v, w, det and t_scaled exactly, so it is
         // left out (the results are the same values; a zero barycentric may change sign).
         let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let shear = Vec3A::new(dir[kx], dir[ky], 1.0) / dir[kz];
+        let d = dir.to_array(); // array indexing, not a branch per axis
+        let shear = Vec3A::new(d[kx], d[ky], 1.0) / d[kz];
         Self { origin, dir, inv_dir, kz, shear }
     }
 
@@ -45,9 +46,6 @@ impl PreparedRay {
     /// `v0·(1−b1−b2) + v1·b1 + v2·b2`. Both faces are hit (no culling).
     #[inline]
     pub fn intersect_triangle(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
-        // One copy of the test per major axis, so the coordinates are picked at compile time
-        // (indexing a SIMD vector by a run-time axis goes through memory). The branch goes the
-        // same way for every triangle a ray meets.
         match self.kz {
             0 => self.intersect_along::<0>(v, t_max),
             1 => self.intersect_along::<1>(v, t_max),
@@ -55,11 +53,22 @@ impl PreparedRay {
         }
     }
 
-    /// The test with the three vertices' coordinates side by side in SIMD lanes: every lane
-    /// computes exactly the scalar expression of the paper (same operands, same order), so the
-    /// result is that of a scalar implementation, bit for bit.
+    /// The axis along which the direction is largest in magnitude: the `KZ` that
+    /// [`Self::intersect_along`] must be called with.
+    pub fn major_axis(&self) -> usize {
+        self.kz
+    }
+
+    /// [`Self::intersect_triangle`] for a ray whose [`Self::major_axis`] is `KZ`. One copy of
+    /// the test per major axis, so the coordinates are picked at compile time (indexing a SIMD
+    /// vector by a run-time axis goes through memory); the tracer picks the copy once per ray.
+    ///
+    /// The three vertices' coordinates sit side by side in SIMD lanes, and every lane computes
+    /// exactly the scalar expression of the paper (same operands, same order), so the result is
+    /// that of a scalar implementation, bit for bit.
     #[inline(always)]
-    fn intersect_along<const KZ: usize>(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+    pub fn intersect_along<const KZ: usize>(&self, v: &[Vec3A; 3], t_max: f32) -> Option<(f32, f32, f32)> {
+        debug_assert_eq!(KZ, self.kz);
         let (kx, ky) = ((KZ + 1) % 3, (KZ + 2) % 3);
         let a = v[0] - self.origin;
         let b = v[1] - self.origin;

@@ -30,7 +30,10 @@ fn main() {
     let total_ms = sw.elapsed().as_secs_f64() * 1e3;
     let mib = |b: f64| b / (1u64 << 20) as f64;
     let comp = a.compression().map_or("uncompressed".to_string(), |c| {
-        format!("compressed in {:.0} ms ({} distinct rows, dictionary {}, mapped per step {:?}, random {})", c.ms, c.distinct_rows, c.dictionary_rows, c.mapped_at_step, c.random)
+        format!(
+            "compressed in {:.0} ms ({} distinct rows, dictionary {}, mapped per step {:?}, random {})",
+            c.ms, c.distinct_rows, c.dictionary_rows, c.mapped_at_step, c.random
+        )
     });
     println!(
         "{scene_name}, {lights} lights, {size}², {}³, {}×{} directions, bias {}/{} cells, normal offset {} cells (cell {:.3} m): Alg. 1 {:.0} ms, total {total_ms:.0} ms, {comp}; memory {:.1} MiB (uncompressed {:.1} MiB)",
@@ -46,9 +49,9 @@ fn main() {
         mib(a.uncompressed_bytes() as f64)
     );
     let sw = std::time::Instant::now();
-    let e = epsilon::epsilon(&frame, &g, &tracer, lights, |ps, s| a.occluded_from_surface(ps, s.normal));
+    let e = epsilon::epsilon(&frame, &g, &tracer, lights, |_, ps, s| a.occluded_from_surface(ps, s.normal));
     let eps_ms = sw.elapsed().as_secs_f64() * 1e3;
-    let t = epsilon::epsilon(&frame, &g, &tracer, lights, |ps, _| a.occluded(&ps.shadow, ps.t_max));
+    let t = epsilon::epsilon(&frame, &g, &tracer, lights, |_, ps, _| a.occluded(&ps.shadow, ps.t_max));
     let pc = |x: f64| 100.0 * x;
     println!(
         "  with normal offset: ε_v {:.2}%  ε_s {:.2}% (signed {:+.2}%)  facing-only ε_v {:.2}% ε_s {:.2}%  over {} pixels ({eps_ms:.0} ms)",

@@ -159,7 +159,7 @@ pub fn compress<R: Row>(rows: &[R], p: &CompressParams) -> (Compressed<R>, Vec<u
 
     // Pack.
     let bits = index_bits(dictionary.len());
-    let mut indices = vec![0u64; (rows.len() * bits as usize).div_ceil(64) + 2];
+    let mut indices = crate::voxelize::alloc_rows::<u64>((rows.len() * bits as usize).div_ceil(64) + 2);
     // Each 64-bit word gathers the indices that touch it; parallel over words, no races.
     indices.par_iter_mut().enumerate().for_each(|(w, word)| {
         let lo_bit = w * 64;

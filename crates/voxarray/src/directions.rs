@@ -16,8 +16,11 @@ use glimpse_core::{Mat3, Vec3};
 pub struct Directions {
     /// Angles per axis (90 for the paper's k = 2°).
     pub n: u32,
-    /// `R(θ_i, φ_j)` at `i·n + j`, the lookup table of Alg. 6 (used by the query too).
+    /// `R(θ_i, φ_j)` at `i·n + j`, the lookup table of Alg. 6.
     pub rotations: Vec<Mat3>,
+    /// (cos, sin) of angle index `k·180°/n`: the query rotates with these (a few hundred bytes,
+    /// always in cache) rather than loading a 36-byte matrix from an 8,100-entry table.
+    pub cos_sin: Vec<(f32, f32)>,
 }
 
 impl Directions {
@@ -29,7 +32,17 @@ impl Directions {
                 rotations.push(rotation(angle_rad(n, i), angle_rad(n, j)));
             }
         }
-        Self { n, rotations }
+        let cos_sin = (0..n).map(|k| (angle_rad(n, k).cos(), angle_rad(n, k).sin())).collect();
+        Self { n, rotations, cos_sin }
+    }
+
+    /// `R(θ_i, φ_j)·v` from the cos/sin table.
+    #[inline]
+    pub fn rotate(&self, i: u32, j: u32, v: Vec3) -> Vec3 {
+        let (ct, st) = self.cos_sin[i as usize];
+        let (cp, sp) = self.cos_sin[j as usize];
+        let (ux, uz) = (ct * v.x + st * v.z, -st * v.x + ct * v.z);
+        Vec3::new(ux, cp * v.y - sp * uz, sp * v.y + cp * uz)
     }
 
     /// Angular increment k in degrees.

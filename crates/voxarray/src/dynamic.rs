@@ -17,7 +17,7 @@
 
 use crate::directions::Directions;
 use crate::row::Row;
-use crate::voxelize::{Grid, rasterize, set_voxel};
+use crate::voxelize::{Grid, alloc_rows, rasterize, set_voxel};
 use crate::{Array, Rows, VoxArray, VoxArrayParams, world_triangles};
 use glimpse_core::{Mat4, Vec3};
 use glimpse_scene::SceneFrame;
@@ -71,7 +71,7 @@ pub fn rebuild_from_fragments<R: Row>(triangles: &[[Vec3; 3]], grid: Grid, p: &V
     let half = n / 2;
     let c = Vec3::splat(grid.resolution as f32 * 0.5);
     let nf = grid.resolution as f32;
-    let mut rows = vec![R::ZERO; n * n * per_vox];
+    let mut rows = alloc_rows::<R>(n * n * per_vox);
     rows.par_chunks_mut(n * per_vox).enumerate().for_each(|(i, slab)| {
         let (first, second) = slab.split_at_mut(half * per_vox);
         for j in 0..half {
@@ -89,7 +89,17 @@ pub fn rebuild_from_fragments<R: Row>(triangles: &[[Vec3; 3]], grid: Grid, p: &V
         }
     });
     let build_ms = sw.elapsed().as_secs_f64() * 1e3;
-    Array { grid, dirs, rows: Rows::Plain(rows), bias_start_cells: p.bias_start_cells, bias_end_cells: p.bias_end_cells, normal_offset_cells: p.normal_offset_cells, build_ms, compression: None }
+    Array {
+        grid,
+        dirs,
+        rows: Rows::Plain(rows),
+        bias_start_cells: p.bias_start_cells,
+        bias_end_cells: p.bias_end_cells,
+        normal_offset_cells: p.normal_offset_cells,
+        skip_start_run: p.skip_start_run,
+        build_ms,
+        compression: None,
+    }
 }
 
 /// Alg. 6 over a frame at the run-time resolution.

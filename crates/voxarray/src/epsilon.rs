@@ -24,14 +24,14 @@ pub struct Epsilon {
     pub facing: ShadowErrors,
 }
 
-/// ε of the decisions `occluded(sample, shading)` against `exact` for the first `lights`
+/// ε of the decisions `occluded(light index, sample, shading)` against `exact` for the first `lights`
 /// lights at every GBuffer pixel.
 pub fn epsilon(
     frame: &SceneFrame,
     gbuffer: &GBuffer,
     exact: &ExactTracer,
     lights: usize,
-    occluded: impl Fn(&PunctualSample, &Shading) -> bool + Sync,
+    occluded: impl Fn(usize, &PunctualSample, &Shading) -> bool + Sync,
 ) -> Epsilon {
     let reference = light_visibility(frame, gbuffer, exact, lights);
     let n = reference.lights;
@@ -43,7 +43,7 @@ pub fn epsilon(
             let Some(s) = Shading::from_gbuffer(gbuffer, i) else { return };
             for (l, light) in ls.iter().enumerate() {
                 let ps = direct::punctual(light, s.position, s.normal);
-                if !occluded(&ps, &s) {
+                if !occluded(l, &ps, &s) {
                     row[l / 64] |= 1 << (l % 64);
                 }
             }

@@ -55,13 +55,23 @@ pub struct VoxArrayParams {
     /// where the caller knows the normal (`lights-voxarray`, the ε metrics); the `Visibility`
     /// trait gets no normal and uses only the along-row bias.
     pub normal_offset_cells: f32,
+    /// `Visibility` trait only (no normal there): ignore the occupied run touching the start.
+    pub skip_start_run: bool,
     /// Alg. 2 on (`None`: the uncompressed array).
     pub compress: Option<CompressParams>,
 }
 
 impl Default for VoxArrayParams {
     fn default() -> Self {
-        Self { resolution: 128, directions: 90, bias_start_cells: 1.0, bias_end_cells: 1.0, normal_offset_cells: 1.5, compress: Some(CompressParams::default()) }
+        Self {
+            resolution: 128,
+            directions: 90,
+            bias_start_cells: 1.0,
+            bias_end_cells: 1.0,
+            normal_offset_cells: 1.5,
+            skip_start_run: true,
+            compress: Some(CompressParams::default()),
+        }
     }
 }
 
@@ -71,7 +81,8 @@ impl VoxArrayParams {
         Self { compress: None, ..Self::default() }
     }
 
-    /// Reads `resolution`, `directions`, `bias`, `bias_light`, `normal_offset`, `compress`, `dictionary`,
+    /// Reads `resolution`, `directions`, `bias`, `bias_light`, `normal_offset`,
+    /// `skip_start_run`, `compress`, `dictionary`,
     /// `steps`, with `self` as the defaults.
     pub fn read(self, params: &Params) -> Result<Self, ParamError> {
         let invalid = |key: &str, v: u32, m: &str| ParamError::Invalid { key: key.into(), value: v.to_string(), message: m.into() };
@@ -93,6 +104,7 @@ impl VoxArrayParams {
             bias_start_cells: params.f32("bias", self.bias_start_cells, 0.0, 64.0)?,
             bias_end_cells: params.f32("bias_light", self.bias_end_cells, 0.0, 64.0)?,
             normal_offset_cells: params.f32("normal_offset", self.normal_offset_cells, 0.0, 64.0)?,
+            skip_start_run: params.bool("skip_start_run", self.skip_start_run)?,
             compress: compress.then_some(CompressParams { dictionary_rows, steps, seed: c.seed }),
         })
     }
@@ -114,6 +126,7 @@ pub struct Array<R: Row> {
     pub bias_start_cells: f32,
     pub bias_end_cells: f32,
     pub normal_offset_cells: f32,
+    pub skip_start_run: bool,
     pub build_ms: f64,
     pub compression: Option<CompressionReport>,
 }
@@ -131,7 +144,17 @@ impl<R: Row> Array<R> {
         let sw = std::time::Instant::now();
         let plain = voxelize::build_array::<R>(triangles, &grid, &dirs);
         let build_ms = sw.elapsed().as_secs_f64() * 1e3;
-        let mut a = Array { grid, dirs, rows: Rows::Plain(plain), bias_start_cells: p.bias_start_cells, bias_end_cells: p.bias_end_cells, normal_offset_cells: p.normal_offset_cells, build_ms, compression: None };
+        let mut a = Array {
+            grid,
+            dirs,
+            rows: Rows::Plain(plain),
+            bias_start_cells: p.bias_start_cells,
+            bias_end_cells: p.bias_end_cells,
+            normal_offset_cells: p.normal_offset_cells,
+            skip_start_run: p.skip_start_run,
+            build_ms,
+            compression: None,
+        };
         if let Some(c) = &p.compress {
             a.compress(c);
         }
@@ -206,9 +229,17 @@ impl<R: Row> Array<R> {
 }
 
 impl<R: Row> Visibility for Array<R> {
+    /// Alg. 3 on the ray's segment, with the along-row bias and (if `skip_start_run`) the
+    /// occupied run at the start ignored: the trait gives no normal to offset the start with.
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         let (a, b) = self.segment(ray, t_max);
-        self.occluded_segment(a, b)
+        if !self.skip_start_run {
+            return self.occluded_segment(a, b);
+        }
+        match query::extent(&self.grid, &self.dirs, a, b, self.bias_start_cells, self.bias_end_cells) {
+            Some(x) => query::clip_hits_after_start_run(self.row(x.row_index(R::BITS)), &x),
+            None => false,
+        }
     }
 }
 

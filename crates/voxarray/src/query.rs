@@ -14,7 +14,10 @@
 //!   segment's start (the shaded point) and `bias_end_cells` at its end (the light, which may sit
 //!   on a surface: the paper's TV and VPLs), measured in cells along the row axis:
 //!   `s = ⌊z_start + b_start⌋`, `e = ⌊z_end − b_end⌋` (for a start below the end; mirrored
-//!   otherwise). It needs no surface normal, so the same query serves the `Visibility` trait.
+//!   otherwise). Callers that know the surface normal (`lights-voxarray`, the ε metrics) also
+//!   move the start along it ([`crate::VoxArrayParams::normal_offset_cells`]); the
+//!   `Visibility` trait, which gets no normal, instead skips the run of occupied voxels touching
+//!   the start ([`clip_hits_after_start_run`]) when `skip_start_run` is on.
 
 use crate::directions::Directions;
 use crate::row::Row;
@@ -31,6 +34,8 @@ pub struct Extent {
     /// First and last voxel, inclusive (`s ≤ e < N`).
     pub s: u32,
     pub e: u32,
+    /// The segment's start (the shaded point) is at the `s` end of the row.
+    pub start_low: bool,
 }
 
 impl Extent {
@@ -46,26 +51,46 @@ impl Extent {
 #[inline]
 pub fn extent(grid: &Grid, dirs: &Directions, start: Vec3, end: Vec3, bias_start_cells: f32, bias_end_cells: f32) -> Option<Extent> {
     let (i, j) = dirs.discretize(end - start);
-    let r = dirs.rotation(i, j);
-    let (q0, q1) = (grid.to_cells(&r, start), grid.to_cells(&r, end));
+    let (q0, q1) = (grid.to_cells_ij(dirs, i, j, start), grid.to_cells_ij(dirs, i, j, end));
     let m = (q0 + q1) * 0.5;
     let nf = grid.resolution as f32;
     if !(m.x >= 0.0 && m.x < nf && m.y >= 0.0 && m.y < nf) {
         return None;
     }
-    let (lo, hi) = if q0.z <= q1.z { (q0.z + bias_start_cells, q1.z - bias_end_cells) } else { (q1.z + bias_end_cells, q0.z - bias_start_cells) };
+    let (lo, hi) =
+        if q0.z <= q1.z { (q0.z + bias_start_cells, q1.z - bias_end_cells) } else { (q1.z + bias_end_cells, q0.z - bias_start_cells) };
     let (lo, hi) = (lo.max(0.0), hi.min(nf - 1e-3));
     if lo > hi || lo.is_nan() || hi.is_nan() {
         return None;
     }
     let (s, e) = (lo as u32, hi as u32);
-    Some(Extent { voxelization: i * dirs.n + j, x: m.x as u32, y: m.y as u32, s, e })
+    Some(Extent { voxelization: i * dirs.n + j, x: m.x as u32, y: m.y as u32, s, e, start_low: q0.z <= q1.z })
 }
 
 /// Alg. 3 lines 5–7 on a fetched row.
 #[inline]
 pub fn clip_hits<R: Row>(row: R, s: u32, e: u32) -> bool {
     !row.and(R::mask(s, e)).is_zero()
+}
+
+/// Alg. 3 lines 5–7 ignoring the run of occupied voxels that touches the start end of `[s, e]`
+/// (our heuristic for callers without a surface normal: that run is, most often, the surface
+/// the segment starts on, read along a grazing row). A blocker touching that surface is missed.
+#[inline]
+pub fn clip_hits_after_start_run<R: Row>(row: R, x: &Extent) -> bool {
+    let m = row.and(R::mask(x.s, x.e)).to_u128();
+    if m == 0 {
+        return false;
+    }
+    if x.start_low {
+        let y = m >> x.s;
+        let k = y.trailing_ones();
+        k < 128 && (y >> k) != 0
+    } else {
+        let y = m << (127 - x.e);
+        let k = y.leading_ones();
+        k < 128 && (y << k) != 0
+    }
 }
 
 /// Alg. 3 lines 5–6 as the paper writes them, MSB-first (position 0 = leftmost bit), with the

@@ -7,6 +7,11 @@
 //! Structure per scene kind: static → Alg. 1 (+ Alg. 2), built once and kept across frames;
 //! rigid moving instances → Alg. 5 (type arrays built once, transforms per frame); deforming
 //! meshes → Alg. 6 every frame, uncompressed.
+//! Order (ours, same result): pixels are shaded in tiles of [`PIXELS_PER_TILE`] consecutive
+//! pixels with the light loop outside, so one light's queries from neighbouring pixels read the
+//! same voxelization and nearby rows (cache locality; a GPU warp gets the same).
+//! Shaded points move `normal_offset` cells along their normal before the query (see
+//! [`crate::query`] for the bias).
 
 use crate::dynamic::{self, Instanced};
 use crate::{VoxArray, VoxArrayParams};
@@ -16,7 +21,11 @@ use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Techniq
 use glimpse_scene::Scene;
 use glimpse_trace::{GBuffer, Visibility};
 
+use rayon::prelude::*;
 use std::f32::consts::PI;
+
+/// Pixels shaded together, light by light (see `render`).
+pub const PIXELS_PER_TILE: usize = 64;
 
 /// The structure a frame is shaded with.
 pub enum Structure {
@@ -77,7 +86,12 @@ impl LightsVoxArray {
         let p = VoxArrayParams::default().read(params)?;
         let type_resolution = params.u32("type_resolution", p.resolution, 32, 128)?;
         if ![32, 64, 128].contains(&type_resolution) {
-            return Err(glimpse_render::ParamError::Invalid { key: "type_resolution".into(), value: type_resolution.to_string(), message: "must be 32, 64 or 128".into() }.into());
+            return Err(glimpse_render::ParamError::Invalid {
+                key: "type_resolution".into(),
+                value: type_resolution.to_string(),
+                message: "must be 32, 64 or 128".into(),
+            }
+            .into());
         }
         Ok(Self {
             lights: params.u32("lights", all, 1, u32::MAX)?,
@@ -135,27 +149,47 @@ impl Technique for LightsVoxArray {
         };
         let mut stats = Stats { memory_bytes: vis.memory_bytes(), ..Default::default() };
         let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
+        if (out.width, out.height) != (gbuffer.width, gbuffer.height) {
+            return Err(RenderError::Unsupported { technique: "lights-voxarray".into(), message: "image and GBuffer sizes differ".into() });
+        }
+        // Alg. 4, in tiles of PIXELS_PER_TILE consecutive pixels with the light loop outside:
+        // one light's queries from neighbouring pixels read the same voxelization and nearby
+        // rows, so the row loads hit the cache (a GPU gets the same from its warps).
         stats.rays = stats.time("shade", || {
-            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng| {
-                let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
-                    return (Vec3::ZERO, 0);
-                };
-                // Alg. 4 lines 5–8 (as `direct::punctual_irradiance`, with our query).
-                let (mut e, mut rays) = (Vec3::ZERO, 0);
-                for light in lights {
-                    let ps = direct::punctual(light, s.position, s.normal);
-                    let cos = s.cos(ps.wi);
-                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                        continue;
+            out.pixels
+                .par_chunks_mut(PIXELS_PER_TILE)
+                .enumerate()
+                .map(|(tile, px)| {
+                    let base = tile * PIXELS_PER_TILE;
+                    let shading: Vec<Option<Shading>> = (0..px.len()).map(|k| Shading::from_gbuffer(gbuffer, base + k)).collect();
+                    let mut e = vec![Vec3::ZERO; px.len()];
+                    let mut rays = 0u64;
+                    for light in lights {
+                        for (k, s) in shading.iter().enumerate() {
+                            let Some(s) = s else { continue };
+                            let ps = direct::punctual(light, s.position, s.normal);
+                            let cos = s.cos(ps.wi);
+                            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                                continue;
+                            }
+                            rays += 1;
+                            if !vis.occluded_from_surface(&ps, s.normal) {
+                                e[k] += ps.irradiance * cos;
+                            }
+                        }
                     }
-                    rays += 1;
-                    if !vis.occluded_from_surface(&ps, s.normal) {
-                        e += ps.irradiance * cos;
+                    for (k, p) in px.iter_mut().enumerate() {
+                        let i = base + k;
+                        *p = match &shading[k] {
+                            Some(s) => gbuffer.emission[i] + s.albedo / PI * e[k],
+                            None => direct::background(&ctx.frame, gbuffer.view_dir[i]),
+                        };
                     }
-                }
-                (s.albedo / PI * e, rays)
-            })
-        })?;
+                    ctx.progress.add(px.len() as u64);
+                    rays
+                })
+                .sum()
+        });
         Ok(stats)
     }
 }

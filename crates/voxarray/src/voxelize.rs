@@ -32,7 +32,10 @@ pub struct Grid {
 impl Grid {
     /// The cube around `triangles` (world space); a unit cube at the origin if there are none.
     pub fn around(triangles: &[[Vec3; 3]], resolution: u32) -> Grid {
-        let (lo, hi) = triangles.iter().flatten().fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
+        let (lo, hi) = triangles
+            .iter()
+            .flatten()
+            .fold((Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)), |(lo, hi), p| (lo.min(*p), hi.max(*p)));
         let center = if lo.x <= hi.x { (lo + hi) * 0.5 } else { Vec3::ZERO };
         let radius = triangles.iter().flatten().fold(0.0f32, |r, p| r.max((*p - center).length()));
         let side = (2.0 * radius * 1.001).max(1e-3);
@@ -41,6 +44,12 @@ impl Grid {
 
     pub fn cell_size_world(&self) -> f32 {
         1.0 / self.scale
+    }
+
+    /// [`Grid::to_cells`] for voxelization (i, j), rotating with `dirs`' cos/sin table.
+    #[inline]
+    pub fn to_cells_ij(&self, dirs: &Directions, i: u32, j: u32, p: Vec3) -> Vec3 {
+        dirs.rotate(i, j, (p - self.center) * self.scale) + Vec3::splat(self.resolution as f32 * 0.5)
     }
 
     #[inline]
@@ -137,7 +146,7 @@ pub fn build_array<R: Row>(triangles: &[[Vec3; 3]], grid: &Grid, dirs: &Directio
     let per_vox = nres * nres;
     let n = dirs.n as usize;
     let half = n / 2;
-    let mut rows = vec![R::ZERO; n * n * per_vox];
+    let mut rows = alloc_rows::<R>(n * n * per_vox);
     rows.par_chunks_mut(n * per_vox).enumerate().for_each(|(i, slab)| {
         let (first, second) = slab.split_at_mut(half * per_vox);
         let mut cells = Vec::with_capacity(triangles.len());
@@ -151,6 +160,27 @@ pub fn build_array<R: Row>(triangles: &[[Vec3; 3]], grid: &Grid, dirs: &Directio
         }
     });
     rows
+}
+
+/// A zeroed row array, backed by transparent huge pages where the OS allows (Linux madvise):
+/// the query is one random row load per ray, and 4 KiB pages make that a TLB miss too.
+pub fn alloc_rows<R: Row>(len: usize) -> Vec<R> {
+    let mut v: Vec<R> = Vec::with_capacity(len);
+    #[cfg(target_os = "linux")]
+    {
+        let bytes = len * std::mem::size_of::<R>();
+        let start = v.as_mut_ptr() as usize;
+        let aligned = start.next_multiple_of(4096);
+        if bytes > (4 << 20) && aligned < start + bytes {
+            // SAFETY: the range lies inside `v`'s allocation (capacity `len`); MADV_HUGEPAGE only
+            // changes how the kernel backs the pages and never their contents.
+            unsafe {
+                libc::madvise(aligned as *mut libc::c_void, start + bytes - aligned, libc::MADV_HUGEPAGE);
+            }
+        }
+    }
+    v.resize(len, R::ZERO);
+    v
 }
 
 /// One voxelization computed directly at rotation `r` (for the transposition check).

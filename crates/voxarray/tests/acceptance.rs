@@ -66,7 +66,12 @@ fn check_01_bit_clipping_fig4() {
             checked += 1;
         }
     }
-    println!("mask vs shift agree on all {checked} (s, e) pairs; edge masks: u32 {:#x}, u64 {:#x}, u128 {:#x}", u32::mask(0, 31), u64::mask(63, 63), u128::mask(0, 127));
+    println!(
+        "mask vs shift agree on all {checked} (s, e) pairs; edge masks: u32 {:#x}, u64 {:#x}, u128 {:#x}",
+        u32::mask(0, 31),
+        u64::mask(63, 63),
+        u128::mask(0, 127)
+    );
     assert_eq!(u32::mask(0, 31), u32::MAX);
     assert_eq!(u64::mask(0, 63), u64::MAX);
     assert_eq!(u128::mask(0, 127), u128::MAX);
@@ -130,7 +135,15 @@ fn dda_any(vox: &[u32], n: u32, a: Vec3, b: Vec3) -> bool {
     let mut c = a.floor().as_ivec3();
     let end = b.floor().as_ivec3();
     let step = d.signum().as_ivec3();
-    let next = |k: usize| if d[k] > 0.0 { (c[k] as f32 + 1.0 - a[k]) / d[k] } else if d[k] < 0.0 { (c[k] as f32 - a[k]) / d[k] } else { f32::INFINITY };
+    let next = |k: usize| {
+        if d[k] > 0.0 {
+            (c[k] as f32 + 1.0 - a[k]) / d[k]
+        } else if d[k] < 0.0 {
+            (c[k] as f32 - a[k]) / d[k]
+        } else {
+            f32::INFINITY
+        }
+    };
     let mut t_max = Vec3::new(next(0), next(1), next(2));
     let t_delta = Vec3::new(1.0 / d.x.abs(), 1.0 / d.y.abs(), 1.0 / d.z.abs());
     let inside = |c: glimpse_core::glam::IVec3| c.min_element() >= 0 && c.max_element() < n as i32;
@@ -141,7 +154,13 @@ fn dda_any(vox: &[u32], n: u32, a: Vec3, b: Vec3) -> bool {
         if c == end {
             break;
         }
-        let k = if t_max.x <= t_max.y && t_max.x <= t_max.z { 0 } else if t_max.y <= t_max.z { 1 } else { 2 };
+        let k = if t_max.x <= t_max.y && t_max.x <= t_max.z {
+            0
+        } else if t_max.y <= t_max.z {
+            1
+        } else {
+            2
+        };
         c[k] += step[k];
         t_max[k] += t_delta[k];
     }
@@ -174,7 +193,9 @@ fn check_03_direction_discretization() {
         worst = worst.max(cos.acos().to_degrees());
     }
     let fig3 = directions::discretize(directions::row_direction(30f32.to_radians(), 42f32.to_radians()), 90);
-    println!("{roundtrip} sampled directions and negations round-trip; worst misalignment over 20,000 random directions {worst:.3}° (k/√2 = 1.414°); Fig. 3 (θ=30°, φ=42°) → V{fig3:?}");
+    println!(
+        "{roundtrip} sampled directions and negations round-trip; worst misalignment over 20,000 random directions {worst:.3}° (k/√2 = 1.414°); Fig. 3 (θ=30°, φ=42°) → V{fig3:?}"
+    );
     assert!(worst <= 1.42, "worst {worst}");
     assert_eq!(fig3, (15, 21));
 }
@@ -195,7 +216,11 @@ fn check_04_transposition_identity() {
             voxelize::transpose(v, &mut again);
             perm_ok &= again == t && v.iter().map(|r| r.count_ones()).sum::<u32>() == t.iter().map(|r| r.count_ones()).sum::<u32>();
             // Against a direct voxelization at (θ_i, φ_j + 90°).
-            let direct: Vec<u32> = voxelize::voxelize_direct(&tris, &a.grid, &directions::rotation(directions::angle_rad(6, i), directions::angle_rad(6, j + 3)));
+            let direct: Vec<u32> = voxelize::voxelize_direct(
+                &tris,
+                &a.grid,
+                &directions::rotation(directions::angle_rad(6, i), directions::angle_rad(6, j + 3)),
+            );
             for (x, y) in t.iter().zip(&direct) {
                 differ += (x ^ y).count_ones() as u64;
                 set += (x | y).count_ones() as u64;
@@ -203,7 +228,10 @@ fn check_04_transposition_identity() {
         }
     }
     let _ = n;
-    println!("transposed V[i][j+n/2] is a permutation of V[i][j]: {perm_ok}; against direct voxelization at φ+90°: {differ} of {set} occupied voxels differ ({:.4}%)", 100.0 * differ as f64 / set as f64);
+    println!(
+        "transposed V[i][j+n/2] is a permutation of V[i][j]: {perm_ok}; against direct voxelization at φ+90°: {differ} of {set} occupied voxels differ ({:.4}%)",
+        100.0 * differ as f64 / set as f64
+    );
     assert!(perm_ok);
     // Fragment-centre voxelization is rotation-consistent except for fragments on cell faces.
     assert!((differ as f64) <= 0.005 * set as f64);
@@ -230,7 +258,9 @@ fn check_05_empty_scene_and_closed_box() {
         let d = glimpse_core::sampling::uniform_sphere(rng.next_2d());
         inside += boxed.occluded_segment(Vec3::new(0.1, -0.2, 0.05), d * 3.0) as u32;
     }
-    println!("empty scene: {occluded}/1000 segments occluded; point inside a closed box, lights outside (bias 1 cell each end): {inside}/{total} occluded");
+    println!(
+        "empty scene: {occluded}/1000 segments occluded; point inside a closed box, lights outside (bias 1 cell each end): {inside}/{total} occluded"
+    );
     assert_eq!(occluded, 0);
     assert_eq!(inside, total);
 }
@@ -242,7 +272,10 @@ fn check_06_dictionary_and_lossless() {
     let rows = plain(&a);
     let (c, _, rep) = compress::compress(rows, &CompressParams::default());
     let lossless = c.decode() == rows;
-    println!("{} rows, {} distinct, dictionary {} (n = 2^20): decode == original: {lossless}", rep.rows, rep.distinct_rows, rep.dictionary_rows);
+    println!(
+        "{} rows, {} distinct, dictionary {} (n = 2^20): decode == original: {lossless}",
+        rep.rows, rep.distinct_rows, rep.dictionary_rows
+    );
     assert!(rep.distinct_rows <= 1 << 20);
     assert!(lossless);
     // With a small dictionary, D holds the n most frequent rows.
@@ -254,7 +287,10 @@ fn check_06_dictionary_and_lossless() {
     }
     let min_in = c.dictionary.iter().map(|r| counts[r]).min().unwrap();
     let max_out = counts.iter().filter(|(r, _)| !c.dictionary.contains(r)).map(|(_, k)| *k).max().unwrap_or(0);
-    println!("n = {n}: least frequent dictionary row occurs {min_in}×, most frequent row left out {max_out}×; {} indices of {} bits", rep.rows, c.index_bits);
+    println!(
+        "n = {n}: least frequent dictionary row occurs {min_in}×, most frequent row left out {max_out}×; {} indices of {} bits",
+        rep.rows, c.index_bits
+    );
     assert_eq!(c.dictionary.len(), n as usize);
     assert!(min_in >= max_out);
     assert_eq!(c.index_bits, 6);
@@ -276,7 +312,12 @@ fn check_07_step_invariant() {
     }
     let total = rep.rows as f64;
     let frac: Vec<String> = rep.mapped_at_step.iter().map(|m| format!("{:.3}%", 100.0 * *m as f64 / total)).collect();
-    println!("{} rows, {} distinct, n = 256: mapped at steps ×1,×2,×4,×8: {frac:?}, random {:.3}%; invariant violations {violations}", rep.rows, rep.distinct_rows, 100.0 * rep.random as f64 / total);
+    println!(
+        "{} rows, {} distinct, n = 256: mapped at steps ×1,×2,×4,×8: {frac:?}, random {:.3}%; invariant violations {violations}",
+        rep.rows,
+        rep.distinct_rows,
+        100.0 * rep.random as f64 / total
+    );
     assert_eq!(violations, 0);
     assert_eq!(rep.mapped_at_step.iter().sum::<u64>() + rep.random, rep.rows);
     assert!(rep.mapped_at_step[1] + rep.mapped_at_step[2] + rep.mapped_at_step[3] > 0);
@@ -303,7 +344,13 @@ fn check_08_memory_accounting() {
     let before = a.uncompressed_bytes();
     a.compress(&CompressParams::default());
     let Rows::Compressed(c) = &a.rows else { unreachable!() };
-    println!("{}; a 32³ 4×4 array: {before} B → {} B packed ({} dictionary rows, {}-bit indices)", lines.join("; "), c.packed_bytes(), c.dictionary.len(), c.index_bits);
+    println!(
+        "{}; a 32³ 4×4 array: {before} B → {} B packed ({} dictionary rows, {}-bit indices)",
+        lines.join("; "),
+        c.packed_bytes(),
+        c.dictionary.len(),
+        c.index_bits
+    );
     assert_eq!(before, 4 * 4 * 32 * 32 * 4);
 }
 
@@ -317,7 +364,7 @@ fn many_lights_eps(p: &VoxArrayParams, lights: usize, size: u32) -> (epsilon::Ep
     let sw = std::time::Instant::now();
     let a = VoxArray::build(&frame, p);
     let ms = sw.elapsed().as_secs_f64() * 1e3;
-    (epsilon::epsilon(&frame, &g, &tracer, lights, |ps, s| a.occluded_from_surface(ps, s.normal)), ms)
+    (epsilon::epsilon(&frame, &g, &tracer, lights, |_, ps, s| a.occluded_from_surface(ps, s.normal)), ms)
 }
 
 #[test]
@@ -464,3 +511,55 @@ fn segment_hits(p: Vec3, q: Vec3, t: &[Vec3; 3]) -> bool {
 
 #[allow(dead_code)]
 fn unused(_: Mat3, _: Grid, _: query::Extent) {}
+
+/// `lights-voxarray` end to end (Alg. 4) on a static, a rigid-dynamic (Alg. 5) and a deforming
+/// (Alg. 6) scene: renders, reports its stages, and stays close to `lights-exact`.
+#[test]
+fn check_15_technique_alg4_static_rigid_deforming() {
+    use glimpse_render::{FrameContext, Params, Settings, Technique};
+    use glimpse_voxarray::technique::LightsVoxArray;
+    for (name, extra) in [("many-lights", "lights=32"), ("cornell-dynamic", "lights=8"), ("deforming", "lights=8")] {
+        let mut scene = if name == "many-lights" { glimpse_scene::builtin::many_lights(32) } else { glimpse_scene::load(name).unwrap() };
+        if name == "cornell-dynamic" {
+            // Only an area light there: add point lights inside the box.
+            let b = scene.at(0.0).bounds;
+            for k in 0..8 {
+                let f = Vec3::new(0.2 + 0.08 * k as f32, 0.8, 0.3 + 0.05 * k as f32);
+                scene.lights.push(glimpse_scene::Light::point(b.min + (b.max - b.min) * f, Vec3::splat(2.0)));
+            }
+        }
+        let ctx = FrameContext::new(&scene, 0.5, 20, 20);
+        let g = ctx.gbuffer();
+        let params = Params::parse(&["resolution=32", "directions=8", "compress=true", "dictionary=4096", extra]).unwrap();
+        let mut t = LightsVoxArray::new(&scene, &Settings::default(), &params).unwrap();
+        params.finish("lights-voxarray").unwrap();
+        let prep = t.prepare(&ctx).unwrap();
+        let mut img = ctx.image();
+        let st = t.render(&ctx, &g, &mut img).unwrap();
+        let exact_params = Params::parse(&[extra]).unwrap();
+        let mut ex = glimpse_render::lights::LightsExact::new(&scene, &Settings::default(), &exact_params).unwrap();
+        let mut ref_img = ctx.image();
+        ex.render(&ctx, &g, &mut ref_img).unwrap();
+        let (mut sum, mut sum_ref) = (0.0f64, 0.0f64);
+        for (a, b) in img.pixels.iter().zip(&ref_img.pixels) {
+            sum += a.x as f64 + a.y as f64 + a.z as f64;
+            sum_ref += b.x as f64 + b.y as f64 + b.z as f64;
+        }
+        let kind = match t.structure {
+            Some(glimpse_voxarray::technique::Structure::Static(_)) => "static (Alg. 1+2)",
+            Some(glimpse_voxarray::technique::Structure::Instanced(_)) => "rigid (Alg. 5)",
+            Some(glimpse_voxarray::technique::Structure::Deforming(_)) => "deforming (Alg. 6)",
+            None => "none",
+        };
+        println!(
+            "{name}: {kind}, prepare {:?}, memory {:.1} KiB, {} shadow queries, mean radiance {:.4} vs lights-exact {:.4}",
+            prep.stages.iter().map(|(s, ms)| format!("{s} {ms:.0} ms")).collect::<Vec<_>>(),
+            st.memory_bytes as f64 / 1024.0,
+            st.rays,
+            sum / img.pixels.len() as f64,
+            sum_ref / ref_img.pixels.len() as f64
+        );
+        assert!(st.rays > 0);
+        assert!(sum > 0.3 * sum_ref && sum < 2.0 * sum_ref);
+    }
+}
