@@ -31,6 +31,7 @@ impl CandidateSet {
     /// Draws one jittered direction per stratum (`jitter = false`: stratum centres).
     pub fn draw(n: u32, rng: &mut Rng, jitter: bool) -> CandidateSet {
         let hemisphere = Frame::from_z(HEMISPHERE_AXIS);
+        debug_assert_eq!((hemisphere.x, hemisphere.y), (Vec3::X, -Vec3::Z), "select() hard-codes this frame");
         let dirs = (0..n * n)
             .map(|k| {
                 let (a, b) = (k / n, k % n);
@@ -54,13 +55,15 @@ impl CandidateSet {
     /// `sign · dirs[k]`.
     #[inline(always)]
     pub fn select(&self, d: Vec3) -> (usize, f32) {
-        let local = self.hemisphere.to_local(d);
+        // `hemisphere` is Duff et al.'s frame around +y: x = (1,0,0), y = (0,0,−1), z = (0,1,0),
+        // so `to_local` is a swizzle (acceptance check 7 verifies the strata through `to_world`).
+        let local = Vec3::new(d.x, -d.z, d.y);
         // Branch-free: the other hemisphere's rays use −d (a random 50% branch costs more).
         let sign = 1.0f32.copysign(local.z);
-        let u = hemisphere_to_square(local * sign);
-        let n = self.n as f32;
-        let a = ((u.x * n) as u32).min(self.n - 1);
-        let b = ((u.y * n) as u32).min(self.n - 1);
+        let o = hemisphere_to_disk_square(local * sign);
+        let half_n = 0.5 * self.n as f32;
+        let a = (((o.x + 1.0) * half_n) as u32).min(self.n - 1);
+        let b = (((o.y + 1.0) * half_n) as u32).min(self.n - 1);
         ((a * self.n + b) as usize, sign)
     }
 
@@ -83,12 +86,19 @@ pub fn square_to_hemisphere(u: Vec2) -> Vec3 {
 /// Inverse of [`square_to_hemisphere`] for a unit direction with `z ≥ 0`.
 #[inline(always)]
 pub fn hemisphere_to_square(d: Vec3) -> Vec2 {
+    (hemisphere_to_disk_square(d) + Vec2::ONE) * 0.5
+}
+
+/// [`hemisphere_to_square`] before the last step: the point of the concentric map's square
+/// `[−1, 1]²`.
+#[inline(always)]
+pub fn hemisphere_to_disk_square(d: Vec3) -> Vec2 {
     // Undo the lift: r = √(1 − z); the disk point has the direction's azimuth, so the ratio of
     // its coordinates is y/x and no normalization is needed.
     let r = (1.0 - d.z.clamp(0.0, 1.0)).sqrt();
     let (ax, ay) = (d.x.abs(), d.y.abs());
     if r <= 0.0 || ax.max(ay) <= 0.0 {
-        return Vec2::splat(0.5);
+        return Vec2::ZERO;
     }
     // Undo Shirley–Chiu: the wedge |x| ≥ |y| came from |o.x| > |o.y| (o.y/o.x = atan(y/x)/(π/4)),
     // the other from |o.y| ≥ |o.x|; written without a branch on the wedge.
@@ -96,8 +106,7 @@ pub fn hemisphere_to_square(d: Vec3) -> Vec2 {
     let (major, minor) = if swap { (d.y, d.x) } else { (d.x, d.y) };
     let main = r.copysign(major);
     let other = main * atan_unit(minor / major) * (1.0 / FRAC_PI_4);
-    let o = if swap { Vec2::new(other, main) } else { Vec2::new(main, other) };
-    (o + Vec2::ONE) * 0.5
+    if swap { Vec2::new(other, main) } else { Vec2::new(main, other) }
 }
 
 /// arctan on [−1, 1] by an odd minimax polynomial (max error 1.7e-6 rad), several times faster

@@ -272,7 +272,8 @@ impl GiRoma {
     pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         // One RSM per punctual light and per emitting instance (the paper: one per spot/point
         // light); a many-light scene would need thousands of 512² maps per frame.
-        let emitting = scene.instances.iter().filter(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive()).count();
+        let emitting =
+            scene.instances.iter().filter(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive()).count();
         let maps = scene.lights.len() + emitting;
         if maps > MAX_RSM_LIGHTS {
             return Err(RenderError::Unsupported {

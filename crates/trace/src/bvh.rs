@@ -5,6 +5,9 @@
 //! Layout: a flat `Vec<BvhNode>` in depth-first order, so an interior node's left child is the
 //! next node and only the right child's index is stored; leaves index a contiguous range of
 //! `prim_order`. Nodes are 32 bytes of plain data, ready for a GPU buffer.
+//!
+//! [`Bvh4`] is the same tree collapsed to four children per node with structure-of-arrays
+//! boxes: the layout the CPU traverses (see `tracer.rs`).
 
 use glimpse_core::{Aabb, Vec3};
 
@@ -63,6 +66,9 @@ struct BuildPrim {
     index: u32,
 }
 
+/// Binary levels built by the SAH before object-median splits take over (see `build_recursive`).
+const MAX_SAH_DEPTH: usize = 64;
+
 /// Subtrees with fewer primitives than this are built on the current thread.
 const PARALLEL_THRESHOLD: usize = 4096;
 
@@ -81,7 +87,7 @@ impl Bvh {
                 BuildPrim { bounds: b, centroid: b.center(), index: i as u32 }
             })
             .collect();
-        let nodes = build_recursive(&mut prims, 0, &params);
+        let nodes = build_recursive(&mut prims, 0, 0, &params);
         Bvh { nodes, prim_order: prims.iter().map(|p| p.index).collect() }
     }
 
@@ -205,12 +211,21 @@ use bytemuck::Zeroable;
 
 /// Builds the subtree over `prims`, whose first primitive has global index `first`; returns its
 /// nodes with indices relative to the subtree's root.
-fn build_recursive(prims: &mut [BuildPrim], first: usize, params: &BuildParams) -> Vec<BvhNode> {
+fn build_recursive(prims: &mut [BuildPrim], first: usize, depth: usize, params: &BuildParams) -> Vec<BvhNode> {
     let bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.union(p.bounds));
     if prims.len() <= 1 {
         return leaf(prims, bounds, first);
     }
     let centroid_bounds = prims.iter().fold(Aabb::EMPTY, |b, p| b.grow(p.centroid));
+    if depth >= MAX_SAH_DEPTH && prims.len() > params.max_leaf_size {
+        // Adversarial inputs (nested or geometrically spaced boxes) can make the SAH peel off one
+        // primitive per level; past this depth, object-median splits bound the tree's height
+        // by MAX_SAH_DEPTH + log2(n), which keeps traversal stacks fixed-size.
+        let axis = centroid_bounds.largest_axis();
+        let mid = prims.len() / 2;
+        prims.select_nth_unstable_by(mid, |a, b| a.centroid[axis].total_cmp(&b.centroid[axis]));
+        return join_children(prims, first, mid, depth, bounds, params);
+    }
     let split = find_split(prims, centroid_bounds, params);
     let leaf_cost = prims.len() as f32;
     let mid = match split {
@@ -222,11 +237,16 @@ fn build_recursive(prims: &mut [BuildPrim], first: usize, params: &BuildParams) 
         None if prims.len() > params.max_leaf_size => prims.len() / 2,
         _ => return leaf(prims, bounds, first),
     };
+    join_children(prims, first, mid, depth, bounds, params)
+}
+
+/// Builds both halves of `prims` (split at `mid`) and puts them under one interior node.
+fn join_children(prims: &mut [BuildPrim], first: usize, mid: usize, depth: usize, bounds: Aabb, params: &BuildParams) -> Vec<BvhNode> {
     let (left, right) = prims.split_at_mut(mid);
     let (left_nodes, right_nodes) = if left.len() + right.len() > PARALLEL_THRESHOLD {
-        rayon::join(|| build_recursive(left, first, params), || build_recursive(right, first + mid, params))
+        rayon::join(|| build_recursive(left, first, depth + 1, params), || build_recursive(right, first + mid, depth + 1, params))
     } else {
-        (build_recursive(left, first, params), build_recursive(right, first + mid, params))
+        (build_recursive(left, first, depth + 1, params), build_recursive(right, first + mid, depth + 1, params))
     };
     let mut nodes = Vec::with_capacity(1 + left_nodes.len() + right_nodes.len());
     let right_index = 1 + left_nodes.len() as u32;
@@ -411,5 +431,20 @@ mod tests {
         let p = BuildParams::default();
         println!("SAH cost: refit {:.2}, rebuilt {:.2}", bvh.sah_cost(p), full.sah_cost(p));
         assert!((bvh.bounds().min - full.bounds().min).length() < 1e-5);
+    }
+
+    #[test]
+    fn nested_boxes_keep_the_tree_shallow() {
+        // Each box contains the next: the SAH alone would peel them off one level at a time.
+        let boxes: Vec<Aabb> = (0..3000).map(|i| Aabb::new(Vec3::ZERO, Vec3::splat(0.97f32.powi(i)))).collect();
+        let bvh = Bvh::build(&boxes, BuildParams::default());
+        check_invariants(&bvh, &boxes);
+        fn depth(bvh: &Bvh, i: usize) -> usize {
+            let n = bvh.nodes[i];
+            if n.is_leaf() { 1 } else { 1 + depth(bvh, i + 1).max(depth(bvh, n.first_or_right as usize)) }
+        }
+        let d = depth(&bvh, 0);
+        println!("depth of the BVH over 3000 nested boxes: {d}");
+        assert!(d <= MAX_SAH_DEPTH + 14);
     }
 }

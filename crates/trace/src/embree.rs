@@ -9,26 +9,10 @@
 
 use crate::tracer::PrimId;
 use crate::{ClosestHit, Hit, SceneFrame, Visibility};
-use embree3::{BufferUsage, BuildQuality, Device, Format, GeometryKind, IntersectContext, RayHit, SceneFlags};
+use embree3::{BufferUsage, Device, Format, GeometryKind, IntersectContext, RayHit};
 use glimpse_core::Ray;
 
 pub use embree3::Error as EmbreeError;
-
-/// How Embree builds its BVH (see `rtcSetSceneBuildQuality` and `RTC_SCENE_FLAG_ROBUST`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct EmbreeOptions {
-    /// `RTC_BUILD_QUALITY_HIGH` (spatial splits) instead of Embree's default, medium.
-    pub high_quality: bool,
-    /// `RTC_SCENE_FLAG_ROBUST`: no traversal shortcuts that trade accuracy for speed.
-    pub robust: bool,
-}
-
-impl Default for EmbreeOptions {
-    /// Embree's defaults: medium-quality build, fast (non-robust) traversal.
-    fn default() -> Self {
-        Self { high_quality: false, robust: false }
-    }
-}
 
 /// A committed Embree scene of one frame's world-space triangles.
 pub struct EmbreeScene {
@@ -41,12 +25,8 @@ pub struct EmbreeScene {
 }
 
 impl EmbreeScene {
-    /// Builds with Embree's default options.
+    /// Builds with Embree's defaults (medium-quality BVH, default scene flags).
     pub fn build(frame: &SceneFrame) -> Result<EmbreeScene, EmbreeError> {
-        Self::build_with(frame, EmbreeOptions::default())
-    }
-
-    pub fn build_with(frame: &SceneFrame, options: EmbreeOptions) -> Result<EmbreeScene, EmbreeError> {
         let scene_data = frame.scene;
         let mut vertices: Vec<[f32; 3]> = Vec::new();
         let mut ids = Vec::new();
@@ -59,20 +39,9 @@ impl EmbreeScene {
             }
         }
         let device = Device::new()?;
-        let mut flags = SceneFlags::NONE;
-        if options.robust {
-            flags |= SceneFlags::ROBUST;
-        }
         let mut scene: embree3::Scene<'static> = device.create_scene()?;
-        scene.set_flags(flags);
-        if options.high_quality {
-            scene.set_build_quality(BuildQuality::HIGH);
-        }
         if !ids.is_empty() {
             let mut geometry = device.create_geometry(GeometryKind::TRIANGLE)?;
-            if options.high_quality {
-                geometry.set_build_quality(BuildQuality::HIGH);
-            }
             geometry.set_new_buffer::<[f32; 3]>(BufferUsage::VERTEX, 0, Format::FLOAT3, 12, vertices.len())?.copy_from_slice(&vertices);
             let indices: Vec<[u32; 3]> = (0..ids.len() as u32).map(|i| [3 * i, 3 * i + 1, 3 * i + 2]).collect();
             geometry.set_new_buffer::<[u32; 3]>(BufferUsage::INDEX, 0, Format::UINT3, 12, indices.len())?.copy_from_slice(&indices);

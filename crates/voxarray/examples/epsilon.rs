@@ -2,7 +2,7 @@
 //!
 //! cargo run --release -p glimpse-voxarray --example epsilon -- [scene=many-lights] [size=64]
 //!     [lights=1024] [resolution=128] [directions=90] [bias=1] [bias_light=1] [normal_offset=1]
-//!     [compress=false] [dictionary=1048576] [steps=4]
+//!     [compress=false] [dictionary=1048576] [steps=4] [alg6=false] [skip_start_run=false]
 //!
 //! Prints one line for the query with the normal offset (what `lights-voxarray` renders) and one
 //! for the `Visibility` trait (no normal; what `bench rays` measures).
@@ -19,6 +19,7 @@ fn main() {
     let p = VoxArrayParams { compress: None, ..VoxArrayParams::default() }.read(&params).unwrap();
     let scene = glimpse_scene::load(&scene_name).unwrap();
     let lights = params.u32("lights", scene.lights.len() as u32, 1, u32::MAX).unwrap() as usize;
+    let alg6 = params.bool("alg6", false).unwrap();
     params.finish("epsilon").unwrap();
     let scene = if scene_name == "many-lights" { glimpse_scene::builtin::many_lights(lights) } else { scene };
     let frame = scene.at(0.0);
@@ -26,7 +27,12 @@ fn main() {
     let camera = scene.camera_or_default(1.0);
     let g = GBuffer::new(&frame, &tracer, &camera, size, size);
     let sw = std::time::Instant::now();
-    let a = VoxArray::build(&frame, &p);
+    // alg6=true: the per-frame rebuild by fragment rotation (uncompressed) instead of Alg. 1.
+    let a = if alg6 {
+        glimpse_voxarray::dynamic::rebuild(&frame, &VoxArrayParams { compress: None, ..p })
+    } else {
+        VoxArray::build(&frame, &p)
+    };
     let total_ms = sw.elapsed().as_secs_f64() * 1e3;
     let mib = |b: f64| b / (1u64 << 20) as f64;
     let comp = a.compression().map_or("uncompressed".to_string(), |c| {
@@ -36,7 +42,8 @@ fn main() {
         )
     });
     println!(
-        "{scene_name}, {lights} lights, {size}², {}³, {}×{} directions, bias {}/{} cells, normal offset {} cells (cell {:.3} m): Alg. 1 {:.0} ms, total {total_ms:.0} ms, {comp}; memory {:.1} MiB (uncompressed {:.1} MiB)",
+        "{scene_name}, {lights} lights, {size}², {}{}³, {}×{} directions, bias {}/{} cells, normal offset {} cells (cell {:.3} m): build {:.0} ms, total {total_ms:.0} ms, {comp}; memory {:.1} MiB (uncompressed {:.1} MiB)",
+        if alg6 { "Alg. 6 " } else { "" },
         p.resolution,
         p.directions,
         p.directions,

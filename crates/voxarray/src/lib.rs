@@ -55,7 +55,8 @@ pub struct VoxArrayParams {
     /// where the caller knows the normal (`lights-voxarray`, the ε metrics); the `Visibility`
     /// trait gets no normal and uses only the along-row bias.
     pub normal_offset_cells: f32,
-    /// `Visibility` trait only (no normal there): ignore the occupied run touching the start.
+    /// `Visibility` trait only (no normal there): ignore the occupied run touching the start
+    /// (helps rays toward lights in front of the surface, hurts rays into it; off by default).
     pub skip_start_run: bool,
     /// Alg. 2 on (`None`: the uncompressed array).
     pub compress: Option<CompressParams>,
@@ -69,7 +70,7 @@ impl Default for VoxArrayParams {
             bias_start_cells: 1.0,
             bias_end_cells: 1.0,
             normal_offset_cells: 1.5,
-            skip_start_run: true,
+            skip_start_run: false,
             compress: Some(CompressParams::default()),
         }
     }
