@@ -3,7 +3,9 @@
 //! The reference of an approximate technique is the exact technique its registry entry names;
 //! an exact technique's reference is itself at `ref_spp` samples (its converged answer). The
 //! reference gets the same `--set` values, reading only those it knows (so `radius=` reaches both
-//! `ao-roma` and `ao-exact`). References are cached on disk (see [`crate::cache`]).
+//! `ao-roma` and `ao-exact`). An approximate technique's reference uses the same seed (the
+//! same per-pixel random streams); an exact technique's reference uses another seed, so its
+//! error is its own noise. References are cached on disk (see [`crate::cache`]).
 
 use crate::cache::Cache;
 use anyhow::{Context, Result};
@@ -141,13 +143,18 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         Ok(file)
     };
 
-    let mut references: BTreeMap<String, (Image, bool)> = BTreeMap::new();
+    let mut references: BTreeMap<(String, u64), (Image, bool, String)> = BTreeMap::new();
     let mut runs = Vec::new();
     for id in &ids {
         let info = registry.get(id)?;
         let ref_id = info.reference.unwrap_or(info.id).to_owned();
-        if !references.contains_key(&ref_id) {
-            let ref_settings = Settings { spp: cfg.ref_spp, seed: cfg.seed.wrapping_add(0x5eed) };
+        // An approximate technique is compared with its reference on the same random streams
+        // (same seed: where both trace the same rays, only the approximation differs); an exact
+        // technique is compared with its own converged render from independent streams.
+        let ref_seed = if info.reference.is_some() { cfg.seed } else { cfg.seed.wrapping_add(0x5eed) };
+        let ref_key = (ref_id.clone(), ref_seed);
+        if !references.contains_key(&ref_key) {
+            let ref_settings = Settings { spp: cfg.ref_spp, seed: ref_seed };
             let ref_params = Params::parse(&cfg.params)?;
             let mut reference = (registry.get(&ref_id)?.create)(&scene, &ref_settings, &ref_params)?;
             let effective = format!("{:?}", ref_params.effective());
@@ -171,10 +178,10 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                     (r.image, false)
                 }
             };
-            write(&format!("ref-{}", slug(&ref_id)), &image)?;
-            references.insert(ref_id.clone(), (image, cached));
+            let file = write(&format!("ref-{}-seed{ref_seed}", slug(&ref_id)), &image)?;
+            references.insert(ref_key.clone(), (image, cached, file));
         }
-        let (reference, reference_cached) = &references[&ref_id];
+        let (reference, reference_cached, reference_file) = &references[&ref_key];
 
         log(&format!("running {id}"));
         let params = Params::parse(&cfg.params)?;
@@ -190,7 +197,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         }
         let mut images = BTreeMap::new();
         images.insert("image".to_owned(), write(&slug(id), &r.image)?);
-        images.insert("reference".to_owned(), format!("ref-{}.png", slug(&ref_id)));
+        images.insert("reference".to_owned(), reference_file.clone());
         let map = error_map(&r.image, reference, ErrorMapKind::FlipHdr)?;
         let err_file = format!("{}-error.png", slug(id));
         map.write(&cfg.out_dir.join(&err_file), ToneMap::default())?;

@@ -42,7 +42,8 @@ fn main() {
         )
     });
     println!(
-        "{scene_name}, {lights} lights, {size}², {}{}³, {}×{} directions, bias {}/{} cells, normal offset {} cells (cell {:.3} m): build {:.0} ms, total {total_ms:.0} ms, {comp}; memory {:.1} MiB (uncompressed {:.1} MiB)",
+        "{scene_name} ({} triangles), {lights} lights, {size}², {}{}³, {}×{} directions, bias {}/{} cells, normal offset {} cells (cell {:.3} m): build {:.0} ms, total {total_ms:.0} ms, {comp}; memory {:.1} MiB (uncompressed {:.1} MiB)",
+        scene.triangle_count(),
         if alg6 { "Alg. 6 " } else { "" },
         p.resolution,
         p.directions,
