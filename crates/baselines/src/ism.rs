@@ -192,7 +192,10 @@ impl LightsIsm {
             family: "many lights",
             reference: Some("lights-exact"),
             description: "every light at every pixel through imperfect shadow maps (points, one octahedral map per light, pull-push); resolution, points, bias, lights",
-            create: |scene: &Scene, settings, params| Ok(Box::new(LightsIsm::new(scene, settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "lights-ism", glimpse_render::Need::PunctualLights)?;
+                Ok(Box::new(LightsIsm::new(scene, settings, params)?))
+            },
         }
     }
 

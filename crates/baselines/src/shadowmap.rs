@@ -220,7 +220,10 @@ impl LightsShadowMap {
             family: "many lights",
             reference: Some("lights-exact"),
             description: "every light at every pixel through one cube shadow map per light (the voxel-array paper's SM baseline); resolution, bias, lights",
-            create: |scene: &Scene, settings, params| Ok(Box::new(LightsShadowMap::new(scene, settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "lights-shadowmap", glimpse_render::Need::PunctualLights)?;
+                Ok(Box::new(LightsShadowMap::new(scene, settings, params)?))
+            },
         }
     }
 

@@ -119,7 +119,10 @@ impl SoftDf {
             family: "soft shadows",
             reference: Some("soft-exact"),
             description: "distance-field soft shadows (the ROMA paper's baseline): area-light samples as soft-exact, sphere-traced shadow rays (steps=16)",
-            create: |_: &Scene, settings, params| Ok(Box::new(SoftDf::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "soft-df", glimpse_render::Need::AreaLights)?;
+                Ok(Box::new(SoftDf::new(settings, params)?))
+            },
         }
     }
 

@@ -168,7 +168,10 @@ impl SoftRoma {
             family: "soft shadows",
             reference: Some("soft-exact"),
             description: "ROMA soft shadows: area-light samples as soft-exact, un-snapped DDA shadow rays (n=8 dda_steps=8; snap=true: snapped)",
-            create: |_: &Scene, settings, params| Ok(Box::new(SoftRoma::new(settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "soft-roma", glimpse_render::Need::AreaLights)?;
+                Ok(Box::new(SoftRoma::new(settings, params)?))
+            },
         }
     }
 
@@ -265,7 +268,10 @@ impl GiRoma {
             family: "global illumination",
             reference: Some("gi-exact"),
             description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light)",
-            create: |scene: &Scene, settings, params| Ok(Box::new(GiRoma::new(scene, settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "gi-roma", glimpse_render::Need::AnyLight)?;
+                Ok(Box::new(GiRoma::new(scene, settings, params)?))
+            },
         }
     }
 

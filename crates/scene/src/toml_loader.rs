@@ -665,6 +665,20 @@ fn compose(outer: &Motion, inner: &Motion) -> (Motion, bool) {
     }
 }
 
+/// toml's `Display` draws the offending line with carets over several lines; the command line
+/// prints one line per error, so keep the message and say where.
+fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim_end().replace('\n', "; ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            let column = span.start - text[..span.start.min(text.len())].rfind('\n').map_or(0, |i| i + 1) + 1;
+            format!("line {line}, column {column}: {message}")
+        }
+        None => message,
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -712,19 +726,5 @@ mod tests {
         let spin = Motion::Orbit { base: p, center: Vec3::ZERO, axis: Vec3::Y, period_s: 2.0, phase: 0.0 };
         let (m, exact) = compose(&spin, &Motion::Fixed(Mat4::from_translation(Vec3::Z)));
         assert!(exact && m.at(0.5).abs_diff_eq(spin.at(0.5) * Mat4::from_translation(Vec3::Z), 1e-5));
-    }
-}
-
-/// toml's `Display` draws the offending line with carets over several lines; the command line
-/// prints one line per error, so keep the message and say where.
-fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
-    let message = e.message().trim_end().replace('\n', "; ");
-    match e.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            let column = span.start - text[..span.start.min(text.len())].rfind('\n').map_or(0, |i| i + 1) + 1;
-            format!("line {line}, column {column}: {message}")
-        }
-        None => message,
     }
 }

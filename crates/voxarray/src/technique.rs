@@ -77,7 +77,10 @@ impl LightsVoxArray {
             family: "many lights",
             reference: Some("lights-exact"),
             description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights",
-            create: |scene: &Scene, settings, params| Ok(Box::new(LightsVoxArray::new(scene, settings, params)?)),
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
+                Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
+            },
         }
     }
 
