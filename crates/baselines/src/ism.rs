@@ -11,7 +11,6 @@
 //! The lookup moves the shaded point along its normal by `bias` texel footprints and compares
 //! distances with the same tolerance. `prepare` builds the maps; `render` only looks them up.
 
-use crate::shadowmap::world_triangles;
 use glimpse_core::{Image, Rng, Vec2, Vec3};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
@@ -66,7 +65,7 @@ pub struct ImperfectShadowMaps {
 
 impl ImperfectShadowMaps {
     pub fn build(frame: &SceneFrame, lights: &[WorldLight], p: &IsmParams) -> Self {
-        let pool = sample_points(&world_triangles(frame), 8 * p.points_per_map as usize, p.seed);
+        let pool = sample_points(&frame.world_triangles(), 8 * p.points_per_map as usize, p.seed);
         let r = p.resolution as usize;
         let mut depth = vec![f32::INFINITY; lights.len() * r * r];
         let pos: Vec<Option<Vec3>> = lights.iter().map(|l| (l.kind != LightKind::Directional).then_some(l.position)).collect();

@@ -98,7 +98,7 @@ impl DfScene {
     /// BOM (same grid, jitter and voxelization as ROMA's for this seed and frame) → field.
     pub fn build(frame: &SceneFrame, params: &DfParams, seed: u64, frame_index: u32) -> DfScene {
         let sw = Stopwatch::start();
-        let triangles = occupancy::world_triangles(frame);
+        let triangles = frame.world_triangles();
         let jitter = if params.jitter { glimpse_roma::frame_jitter(seed, frame_index) } else { Vec3::ZERO };
         let grid = Grid::around(frame.bounds, params.resolution, jitter);
         fn field<W: Word>(t: &[[Vec3; 3]], grid: Grid, v: Voxelization) -> (DistanceField, f64) {

@@ -82,7 +82,7 @@ const NEAR: f32 = 1e-3;
 
 impl CubeShadowMaps {
     pub fn build(frame: &SceneFrame, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
-        let tris = world_triangles(frame);
+        let tris = frame.world_triangles();
         let r = p.resolution as usize;
         let per_light = 6 * r * r;
         let mut depth = vec![f32::INFINITY; lights.len() * per_light];
@@ -194,17 +194,6 @@ fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
     }
 }
 
-/// Every triangle of the frame in world space.
-pub fn world_triangles(frame: &SceneFrame) -> Vec<[Vec3; 3]> {
-    let scene = frame.scene;
-    let mut out = Vec::with_capacity(scene.triangle_count());
-    for (ii, inst) in scene.instances.iter().enumerate() {
-        let m = frame.transforms[ii];
-        let pos = &frame.positions[inst.mesh as usize];
-        out.extend(scene.meshes[inst.mesh as usize].indices.iter().map(|t| t.map(|i| m.transform_point3(pos[i as usize]))));
-    }
-    out
-}
 
 pub struct LightsShadowMap {
     pub lights: u32,

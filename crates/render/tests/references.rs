@@ -62,10 +62,28 @@ fn same_seed_same_image_different_seed_different_image() {
 }
 
 #[test]
+fn references_refuse_scenes_without_their_lights() {
+    let cornell = glimpse_scene::load("cornell").unwrap();
+    for id in ["lights-exact", "env-exact"] {
+        let e = registry().create(id, &cornell, &Settings::default(), &Params::default()).err().map(|e| e.to_string()).unwrap_or_default();
+        println!("{id} on cornell: {e}");
+        assert!(e.contains("has no"), "{id}: {e}");
+    }
+}
+
+#[test]
 fn every_reference_on_every_builtin_scene_is_finite_and_non_negative() {
     for name in glimpse_scene::builtin::NAMES {
         let scene = glimpse_scene::load(name).unwrap();
         for info in glimpse_render::techniques() {
+            // A technique refuses a scene without its kind of light rather than render black.
+            if let Err(RenderError::Unsupported { message, .. }) =
+                registry().create(info.id, &scene, &Settings::default(), &Params::default())
+            {
+                println!("{name} / {}: not applicable: {message}", info.id);
+                assert!(message.contains("has no"), "{message}");
+                continue;
+            }
             let img = render(&scene, info.id, Settings { spp: 2, seed: 3 }, &[], 16);
             let bad = img.pixels.iter().filter(|p| !is_finite3(**p) || p.min_element() < 0.0).count();
             println!("{name} / {}: mean {:.4}, {bad} bad pixels", info.id, img.mean());

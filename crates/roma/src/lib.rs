@@ -280,7 +280,7 @@ impl Roma {
     /// `frame_index` from `seed`), Generate.
     pub fn build(frame: &SceneFrame, params: &RomaParams, seed: u64, frame_index: u32) -> Roma {
         let sw = Stopwatch::start();
-        let triangles = occupancy::world_triangles(frame);
+        let triangles = frame.world_triangles();
         let mut roma = Self::build_from_triangles(&triangles, frame.bounds, params, seed, frame_index);
         // Gathering the world-space triangles belongs to the BOM pass.
         let gather_ms = sw.ms() - roma.timings().voxelize_ms - roma.timings().generate_ms;

@@ -29,7 +29,6 @@
 use crate::grid::Grid;
 use crate::word::Word;
 use glimpse_core::{Vec2, Vec3};
-use glimpse_scene::SceneFrame;
 use rayon::prelude::*;
 
 /// One occupancy map: `R×R` texels (row-major, index `y·R + x`) of `R` depth slices each.
@@ -109,19 +108,6 @@ impl Voxelization {
     pub const PAPER: Voxelization = Voxelization::Sampled { axes: 0b111 };
 }
 
-/// Every triangle of the frame in world space.
-pub fn world_triangles(frame: &SceneFrame) -> Vec<[Vec3; 3]> {
-    let scene = frame.scene;
-    let mut out = Vec::with_capacity(scene.triangle_count());
-    for (ii, inst) in scene.instances.iter().enumerate() {
-        let m = frame.transforms[ii];
-        let pos = &frame.positions[inst.mesh as usize];
-        for t in &scene.meshes[inst.mesh as usize].indices {
-            out.push(t.map(|i| m.transform_point3(pos[i as usize])));
-        }
-    }
-    out
-}
 
 /// The BOM of `triangles` (world space) in `grid`.
 pub fn voxelize<W: Word>(triangles: &[[Vec3; 3]], grid: &Grid, mode: Voxelization) -> OccupancyMap<W> {

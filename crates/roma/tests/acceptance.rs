@@ -9,7 +9,7 @@ use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_roma::directions::{CandidateSet, hemisphere_to_square, square_to_hemisphere};
 use glimpse_roma::generate::generate_map;
 use glimpse_roma::grid::{BOM_AXES, Grid, om_axes};
-use glimpse_roma::occupancy::{OccupancyMap, Voxelization, voxelize, world_triangles};
+use glimpse_roma::occupancy::{OccupancyMap, Voxelization, voxelize};
 use glimpse_roma::technique::{AoRoma, area_light_segment, shadow_blocked};
 use glimpse_roma::trace::{any_hit, closest_hit_slices, range_bits};
 use glimpse_roma::{Roma, RomaParams, Word, with_maps};
@@ -246,7 +246,7 @@ fn check_05_generate_is_nearest_neighbour_resampling() {
     let scene = glimpse_scene::load("cornell").unwrap();
     let frame = scene.at(0.0);
     let grid = Grid::around(frame.bounds, 64, Vec3::new(0.21, -0.13, 0.37));
-    let bom = voxelize::<u64>(&world_triangles(&frame), &grid, Voxelization::Conservative);
+    let bom = voxelize::<u64>(&frame.world_triangles(), &grid, Voxelization::Conservative);
     let mut rng = Rng::new(5, 5);
     let (mut cells, mut mismatches, mut set) = (0u64, 0u64, 0u64);
     for _ in 0..12 {
@@ -429,7 +429,7 @@ fn check_09_bom_coverage() {
     scenes.extend(bunny());
     for scene in &scenes {
         let frame = scene.at(0.0);
-        let tris = world_triangles(&frame);
+        let tris = frame.world_triangles();
         let grid = Grid::around(frame.bounds, 128, Vec3::new(0.1, 0.3, -0.2));
         let mut rng = Rng::new(9, 9);
         let points: Vec<Vec3> = tris

@@ -141,3 +141,18 @@ impl Scene {
         SceneFrame { scene: self, time: t, transforms, positions, normals, lights, emissive, emissive_distribution, bounds }
     }
 }
+
+impl SceneFrame<'_> {
+    /// Every triangle of every instance in world space, instance by instance (the input of the
+    /// voxelizers and shadow-map baselines, which do not need triangle ids).
+    pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
+        let scene = self.scene;
+        let mut out = Vec::with_capacity(scene.triangle_count());
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            let m = self.transforms[ii];
+            let pos = &self.positions[inst.mesh as usize];
+            out.extend(scene.meshes[inst.mesh as usize].indices.iter().map(|t| t.map(|i| m.transform_point3(pos[i as usize]))));
+        }
+        out
+    }
+}

@@ -18,7 +18,7 @@
 use crate::directions::Directions;
 use crate::row::Row;
 use crate::voxelize::{Grid, alloc_rows, rasterize, set_voxel};
-use crate::{Array, Rows, VoxArray, VoxArrayParams, world_triangles};
+use crate::{Array, Rows, VoxArray, VoxArrayParams};
 use glimpse_core::{Mat4, Vec3};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::Visibility;
@@ -104,7 +104,7 @@ pub fn rebuild_from_fragments<R: Row>(triangles: &[[Vec3; 3]], grid: Grid, p: &V
 
 /// Alg. 6 over a frame at the run-time resolution.
 pub fn rebuild(frame: &SceneFrame, p: &VoxArrayParams) -> VoxArray {
-    let tris = world_triangles(frame);
+    let tris = frame.world_triangles();
     match p.resolution {
         32 => VoxArray::R32(rebuild_from_fragments(&tris, Grid::around(&tris, 32), p)),
         64 => VoxArray::R64(rebuild_from_fragments(&tris, Grid::around(&tris, 64), p)),

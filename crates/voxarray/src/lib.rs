@@ -265,7 +265,7 @@ macro_rules! each {
 impl VoxArray {
     /// Alg. 1 (and Alg. 2 if `p.compress`) over the frame's triangles.
     pub fn build(frame: &SceneFrame, p: &VoxArrayParams) -> Self {
-        Self::from_triangles(&world_triangles(frame), p)
+        Self::from_triangles(&frame.world_triangles(), p)
     }
 
     pub fn from_triangles(triangles: &[[Vec3; 3]], p: &VoxArrayParams) -> Self {
@@ -315,16 +315,3 @@ impl Visibility for VoxArray {
     }
 }
 
-/// Every triangle of the frame in world space.
-pub fn world_triangles(frame: &SceneFrame) -> Vec<[Vec3; 3]> {
-    let scene = frame.scene;
-    let mut out = Vec::with_capacity(scene.triangle_count());
-    for (ii, inst) in scene.instances.iter().enumerate() {
-        let m = frame.transforms[ii];
-        let pos = &frame.positions[inst.mesh as usize];
-        for t in &scene.meshes[inst.mesh as usize].indices {
-            out.push(t.map(|i| m.transform_point3(pos[i as usize])));
-        }
-    }
-    out
-}
