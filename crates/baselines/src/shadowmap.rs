@@ -194,7 +194,6 @@ fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
     }
 }
 
-
 pub struct LightsShadowMap {
     pub lights: u32,
     pub params: ShadowMapParams,

@@ -108,7 +108,6 @@ impl Voxelization {
     pub const PAPER: Voxelization = Voxelization::Sampled { axes: 0b111 };
 }
 
-
 /// The BOM of `triangles` (world space) in `grid`.
 pub fn voxelize<W: Word>(triangles: &[[Vec3; 3]], grid: &Grid, mode: Voxelization) -> OccupancyMap<W> {
     debug_assert_eq!(grid.resolution, W::BITS);

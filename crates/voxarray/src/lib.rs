@@ -314,4 +314,3 @@ impl Visibility for VoxArray {
         each!(self, a => a.occluded(ray, t_max))
     }
 }
-
