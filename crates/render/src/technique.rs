@@ -33,7 +33,7 @@ pub fn require(scene: &glimpse_scene::Scene, technique: &str, need: Need) -> Res
     let has_area = scene.instances.iter().any(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive());
     let (ok, what) = match need {
         Need::PunctualLights => (!scene.lights.is_empty(), "punctual (point, spot or directional) lights"),
-        Need::Environment => (scene.environment.is_some(), "an environment map"),
+        Need::Environment => (scene.environment.is_some(), "environment map"),
         Need::AreaLights => (has_area, "area lights (emissive triangles)"),
         Need::AnyLight => (has_area || !scene.lights.is_empty() || scene.environment.is_some(), "lights of any kind"),
     };
