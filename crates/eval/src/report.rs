@@ -63,8 +63,13 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
     h += "<h2>Images</h2><p>Technique, reference, and the FLIP error map (black: no error, bright: large error).</p>";
     for run in &r.runs {
         let _ = write!(h, "<h3>{}</h3>", html_escape(&run.technique));
-        for (key, caption) in [("image", run.technique.as_str()), ("reference", run.reference.as_str()), ("error", "FLIP error")] {
-            if let Some(file) = run.images.get(key) {
+        let captions = [
+            ("image", format!("{} ({} spp)", run.technique, r.spp)),
+            ("reference", format!("reference: {} ({} spp)", run.reference, r.ref_spp)),
+            ("error", "HDR-FLIP error".to_owned()),
+        ];
+        for (key, caption) in &captions {
+            if let Some(file) = run.images.get(*key) {
                 let _ = write!(
                     h,
                     r#"<figure><img src="{}" alt="{}"><figcaption>{}</figcaption></figure>"#,
