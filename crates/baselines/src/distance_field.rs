@@ -17,8 +17,8 @@
 //! - Level 0 is sampled trilinearly between cell centres (the paper: hardware trilinear).
 
 use glimpse_core::Vec3;
-use glimpse_roma::occupancy::OccupancyMap;
-use glimpse_roma::{Grid, Word};
+use glimpse_voxel::occupancy::OccupancyMap;
+use glimpse_voxel::{Grid, Word};
 use rayon::prelude::*;
 
 /// Fixed-point scale: stored value = distance in cells × 256.

@@ -18,10 +18,10 @@ pub use sphere_trace::SphereTraceParams;
 
 use glimpse_core::{Ray, Vec3};
 use glimpse_render::{ParamError, Params, Stopwatch, TechniqueInfo};
-use glimpse_roma::occupancy::{self, Voxelization};
-use glimpse_roma::{Grid, OccupancyMap, Word};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::Visibility;
+use glimpse_voxel::occupancy::{self, Voxelization};
+use glimpse_voxel::{Grid, OccupancyMap, Word};
 
 /// The techniques of this crate, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
@@ -99,7 +99,7 @@ impl DfScene {
     pub fn build(frame: &SceneFrame, params: &DfParams, seed: u64, frame_index: u32) -> DfScene {
         let sw = Stopwatch::start();
         let triangles = frame.world_triangles();
-        let jitter = if params.jitter { glimpse_roma::frame_jitter(seed, frame_index) } else { Vec3::ZERO };
+        let jitter = if params.jitter { glimpse_voxel::frame_jitter(seed, frame_index) } else { Vec3::ZERO };
         let grid = Grid::around(frame.bounds, params.resolution, jitter);
         fn field<W: Word>(t: &[[Vec3; 3]], grid: Grid, v: Voxelization) -> (DistanceField, f64) {
             let sw = Stopwatch::start();

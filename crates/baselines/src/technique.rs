@@ -8,12 +8,12 @@
 use crate::{DfParams, DfScene, SphereTraceParams};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec3};
+use glimpse_render::direct::area_light_segment;
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
-use glimpse_roma::Accumulator;
-use glimpse_roma::technique::{DEFAULT_ACCUMULATE, area_light_segment};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
+use glimpse_voxel::{Accumulator, DEFAULT_ACCUMULATE};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 

@@ -6,8 +6,8 @@ use glimpse_baselines::distance_field::jump_flood;
 use glimpse_baselines::{DfParams, DfScene, DistanceField, SphereTraceParams};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Ray, Rng, Vec3};
-use glimpse_roma::{Grid, OccupancyMap, Word};
 use glimpse_trace::{ExactTracer, GBuffer, Visibility};
+use glimpse_voxel::{Grid, OccupancyMap, Word};
 
 /// A sparse random BOM: `count` occupied cells.
 fn sparse_bom<W: Word>(count: usize, seed: u64) -> (OccupancyMap<W>, Vec<Vec3>) {

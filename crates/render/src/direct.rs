@@ -266,3 +266,18 @@ pub fn env_irradiance(env: Option<&Environment>, vis: &dyn Visibility, s: &Shadi
     }
     if vis.occluded(&s.spawn(d), f32::INFINITY) { (Vec3::ZERO, 1) } else { (l * (cos / pdf), 1) }
 }
+
+/// One area-light sample exactly as `soft-exact` draws it (`direct::sample_area_light` with the
+/// same two random numbers), with the ends of the shadow segment moved off both surfaces by
+/// `offset` (world) along their normals: the receiver's geometric normal and the emitter's. `None`
+/// for a sample that carries no light (behind the emitter or below the receiver).
+pub fn area_light_segment(frame: &SceneFrame, s: &Shading, u_pick: f32, u: Vec2, offset: f32) -> Option<(AreaSample, Vec3, Vec3)> {
+    let ls = sample_area_light(frame, s.position, s.normal, u_pick, u)?;
+    if s.cos(ls.wi) <= 0.0 {
+        return None;
+    }
+    // The emitter `sample_area_light` picked with `u_pick`, for its normal.
+    let (tri, _) = frame.emissive_distribution.as_ref()?.sample_discrete(u_pick);
+    let light_point = ls.shadow.at(ls.t_max) + frame.emissive[tri].normal * offset;
+    Some((ls, s.position + s.normal * offset, light_point))
+}

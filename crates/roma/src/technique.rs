@@ -28,19 +28,16 @@
 //!   the points to avoid shadow acne" of §6) and the shading point is on the lit side. Environment
 //!   light is not injected (the paper's RSMs are for spot and point lights).
 
-use crate::{Accumulator, Roma, RomaParams};
+use crate::{Accumulator, DEFAULT_ACCUMULATE, Roma, RomaParams};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
-use glimpse_render::direct::{self, AreaSample, Shading};
+use glimpse_render::direct::{self, Shading};
 use glimpse_render::rsm::{Rsm, rsm_lights};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
-use glimpse_scene::{Scene, SceneFrame};
+use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
 use rayon::prelude::*;
 use std::f32::consts::PI;
-
-/// Frames accumulated by default: NRD in the paper "accumulates up to 10 frames" (§7.3).
-pub const DEFAULT_ACCUMULATE: u32 = 10;
 
 /// ROMA state shared by the three techniques: parameters, this frame's build, the history.
 struct RomaState {
@@ -204,7 +201,9 @@ impl Technique for SoftRoma {
                 };
                 let (mut e, mut rays) = (Vec3::ZERO, 0u64);
                 for _ in 0..spp {
-                    let Some((ls, from, to)) = area_light_segment(frame, &s, rng.next_f32(), rng.next_2d(), offset) else { continue };
+                    let Some((ls, from, to)) = direct::area_light_segment(frame, &s, rng.next_f32(), rng.next_2d(), offset) else {
+                        continue;
+                    };
                     rays += 1;
                     if !shadow_blocked(roma, from, to, snap, steps) {
                         e += ls.radiance * (s.cos(ls.wi) / ls.pdf);
@@ -216,21 +215,6 @@ impl Technique for SoftRoma {
         stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
         Ok(stats)
     }
-}
-
-/// One area-light sample exactly as `soft-exact` draws it (`direct::sample_area_light` with the
-/// same two random numbers), with the ends of the shadow segment moved off both surfaces by
-/// `offset` (world) along their normals: the receiver's geometric normal and the emitter's. `None`
-/// for a sample that carries no light (behind the emitter or below the receiver).
-pub fn area_light_segment(frame: &SceneFrame, s: &Shading, u_pick: f32, u: Vec2, offset: f32) -> Option<(AreaSample, Vec3, Vec3)> {
-    let ls = direct::sample_area_light(frame, s.position, s.normal, u_pick, u)?;
-    if s.cos(ls.wi) <= 0.0 {
-        return None;
-    }
-    // The emitter `sample_area_light` picked with `u_pick`, for its normal.
-    let (tri, _) = frame.emissive_distribution.as_ref()?.sample_discrete(u_pick);
-    let light_point = ls.shadow.at(ls.t_max) + frame.emissive[tri].normal * offset;
-    Some((ls, s.position + s.normal * offset, light_point))
 }
 
 /// Is the segment `from → to` blocked in ROMA? Un-snapped DDA, or snapped along the candidate of

@@ -5,12 +5,13 @@
 use glimpse_core::sampling::{cosine_hemisphere, uniform_sphere, uniform_triangle};
 use glimpse_core::{Aabb, Frame, Image, Mat4, Ray, Rng, Vec2, Vec3};
 use glimpse_render::ao::AoExact;
+use glimpse_render::direct::area_light_segment;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_roma::directions::{CandidateSet, hemisphere_to_square, square_to_hemisphere};
 use glimpse_roma::generate::generate_map;
 use glimpse_roma::grid::{BOM_AXES, Grid, om_axes};
 use glimpse_roma::occupancy::{OccupancyMap, Voxelization, voxelize};
-use glimpse_roma::technique::{AoRoma, area_light_segment, shadow_blocked};
+use glimpse_roma::technique::{AoRoma, shadow_blocked};
 use glimpse_roma::trace::{any_hit, closest_hit_slices, range_bits};
 use glimpse_roma::{Roma, RomaParams, Word, with_maps};
 use glimpse_scene::{Light, Material, Mesh, Scene};

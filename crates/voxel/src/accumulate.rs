@@ -8,6 +8,9 @@
 
 use glimpse_core::Image;
 
+/// Frames accumulated by default: NRD in the paper "accumulates up to 10 frames" (§7.3).
+pub const DEFAULT_ACCUMULATE: u32 = 10;
+
 /// The per-technique history.
 #[derive(Clone, Debug, Default)]
 pub struct Accumulator {

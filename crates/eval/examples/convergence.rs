@@ -3,7 +3,7 @@
 //! frames `glimpse play` would render), with mean build and trace times per frame.
 //!
 //! ```text
-//! cargo run --release -p glimpse-baselines --example convergence -- SCENE \
+//! cargo run --release -p glimpse-eval --example convergence -- SCENE \
 //!     [-t ao-roma,ao-df] [--size 256] [--frames 16] [--spp 1] [--ref-spp 256] [--seed 0] [--set key=value]...
 //! ```
 //! Frame k is rendered with `frame_index = k` (so ROMA re-draws its candidates and jitter);
@@ -11,7 +11,7 @@
 //! `accumulate` window — pass `--set accumulate=16` for a plain mean of 16 frames).
 
 use glimpse_render::metrics::Metrics;
-use glimpse_render::{FrameContext, Params, Registry, Settings};
+use glimpse_render::{FrameContext, Params, Settings};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().skip(1).collect();
@@ -40,10 +40,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let scene_spec = scene_spec.ok_or("usage: convergence SCENE [-t ids] [--size N] [--frames N] [--spp N] [--ref-spp N] [--set k=v]")?;
     let scene = glimpse_scene::load(&scene_spec)?;
-    let mut all = glimpse_render::techniques();
-    all.extend(glimpse_roma::techniques());
-    all.extend(glimpse_baselines::techniques());
-    let registry = Registry::new(all);
+    let registry = glimpse_eval::registry();
     let mut ctx = FrameContext::new(&scene, 0.0, size, size);
     let gbuffer = ctx.gbuffer();
     println!("{scene_spec}: {size}x{size}, {spp} spp per frame, {frames} frames, references at {ref_spp} spp, set {set:?}");
