@@ -233,18 +233,7 @@ impl Technique for LightsIsm {
                 let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
                     return (Vec3::ZERO, 0);
                 };
-                let (mut e, mut lookups) = (Vec3::ZERO, 0);
-                for (l, light) in lights.iter().enumerate() {
-                    let ps = direct::punctual(light, s.position, s.normal);
-                    let cos = s.cos(ps.wi);
-                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                        continue;
-                    }
-                    lookups += 1;
-                    if !maps.shadowed(l, s.position, s.normal) {
-                        e += ps.irradiance * cos;
-                    }
-                }
+                let (e, lookups) = direct::punctual_irradiance_with(lights, &s, |l, _| maps.shadowed(l, s.position, s.normal));
                 (s.albedo / PI * e, lookups)
             })
         })?;

@@ -237,20 +237,28 @@ pub fn area_irradiance(frame: &SceneFrame, vis: &dyn Visibility, s: &Shading, rn
 
 /// Exact irradiance from the punctual lights `lights` at `s`; returns (irradiance, rays).
 pub fn punctual_irradiance(lights: &[WorldLight], vis: &dyn Visibility, s: &Shading) -> (Vec3, u64) {
+    punctual_irradiance_with(lights, s, |_, ps| vis.occluded(&ps.shadow, ps.t_max))
+}
+
+/// Irradiance from the punctual lights `lights` at `s` with shadows decided by
+/// `blocked(light index, sample)`, asked only for lights that can reach `s`; returns
+/// (irradiance, shadow decisions made). Shadow maps and other approximate shadow tests plug in
+/// here so that they differ from `lights-exact` only in that decision.
+pub fn punctual_irradiance_with(lights: &[WorldLight], s: &Shading, blocked: impl Fn(usize, &PunctualSample) -> bool) -> (Vec3, u64) {
     let mut e = Vec3::ZERO;
-    let mut rays = 0;
-    for light in lights {
+    let mut decisions = 0;
+    for (l, light) in lights.iter().enumerate() {
         let ps = punctual(light, s.position, s.normal);
         let cos = s.cos(ps.wi);
         if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
             continue;
         }
-        rays += 1;
-        if !vis.occluded(&ps.shadow, ps.t_max) {
+        decisions += 1;
+        if !blocked(l, &ps) {
             e += ps.irradiance * cos;
         }
     }
-    (e, rays)
+    (e, decisions)
 }
 
 /// One importance sample of the environment's irradiance at `s`; returns (irradiance, rays).
