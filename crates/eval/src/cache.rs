@@ -13,15 +13,9 @@ pub struct Cache {
 }
 
 impl Cache {
-    /// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`.
+    /// [`glimpse_render::cache_dir`].
     pub fn default_dir() -> Option<PathBuf> {
-        if let Some(d) = std::env::var_os("GLIMPSE_CACHE") {
-            return Some(PathBuf::from(d));
-        }
-        if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
-            return Some(PathBuf::from(d).join("glimpse"));
-        }
-        std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/glimpse"))
+        glimpse_render::cache_dir()
     }
 
     pub fn disabled() -> Self {

@@ -18,6 +18,8 @@ pub fn registry() -> Registry {
     all.extend(glimpse_baselines::techniques());
     all.extend(glimpse_voxarray::techniques());
     all.extend(glimpse_dvf::techniques());
+    all.extend(glimpse_lightcuts::techniques());
+    all.extend(glimpse_wavecache::techniques());
     Registry::new(all)
 }
 

@@ -25,6 +25,19 @@ pub use registry::{Registry, TechniqueInfo};
 pub use stats::{Stats, Stopwatch};
 pub use technique::{Need, RenderError, Settings, Technique, require};
 
+/// Where glimpse keeps data that is slow to compute (reference images, precomputations):
+/// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`.
+pub fn cache_dir() -> Option<std::path::PathBuf> {
+    use std::path::PathBuf;
+    if let Some(d) = std::env::var_os("GLIMPSE_CACHE") {
+        return Some(PathBuf::from(d));
+    }
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+        return Some(PathBuf::from(d).join("glimpse"));
+    }
+    std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/glimpse"))
+}
+
 /// The techniques this crate provides, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
     vec![
