@@ -14,6 +14,9 @@
 use glimpse_core::{Frame, Rng, Vec2, Vec3};
 use std::f32::consts::FRAC_PI_4;
 
+/// Rays processed together by the batch path ([`CandidateSet::select_lanes`]).
+pub const LANES: usize = 8;
+
 /// The world hemisphere the candidates are drawn on.
 pub const HEMISPHERE_AXIS: Vec3 = Vec3::Y;
 
@@ -65,6 +68,38 @@ impl CandidateSet {
         let a = (((o.x + 1.0) * half_n) as u32).min(self.n - 1);
         let b = (((o.y + 1.0) * half_n) as u32).min(self.n - 1);
         ((a * self.n + b) as usize, sign)
+    }
+
+    /// [`CandidateSet::select`] for `LANES` directions at once, written without branches over
+    /// plain arrays so the compiler runs the lanes in SIMD registers (the batch path of
+    /// [`crate::RomaMaps::occluded_rays`]). Same strata as `select` (acceptance check 7b).
+    #[inline(always)]
+    pub fn select_lanes(&self, dx: &[f32; LANES], dy: &[f32; LANES], dz: &[f32; LANES]) -> ([u32; LANES], [f32; LANES]) {
+        let mut k = [0u32; LANES];
+        let mut sign = [0f32; LANES];
+        let half_n = 0.5 * self.n as f32;
+        let last = (self.n - 1) as f32;
+        for l in 0..LANES {
+            // Local frame swizzle as in `select`: (x, −z, y), folded into the +z hemisphere.
+            let s = 1.0f32.copysign(dy[l]);
+            let (x, y, z) = (dx[l] * s, -dz[l] * s, dy[l] * s);
+            let r = (1.0 - z.clamp(0.0, 1.0)).sqrt();
+            let (ax, ay) = (x.abs(), y.abs());
+            let swap = ay > ax;
+            let major = if swap { y } else { x };
+            let minor = if swap { x } else { y };
+            let big = ax.max(ay);
+            // A pole (r = 0) or a zero major axis maps to the square's centre, as in `select`.
+            let ratio = if big > 0.0 { minor / major } else { 0.0 };
+            let main = if r > 0.0 && big > 0.0 { r.copysign(major) } else { 0.0 };
+            let other = main * atan_unit(ratio) * (1.0 / FRAC_PI_4);
+            let (ox, oy) = if swap { (other, main) } else { (main, other) };
+            let a = ((ox + 1.0) * half_n).max(0.0).min(last) as u32;
+            let b = ((oy + 1.0) * half_n).max(0.0).min(last) as u32;
+            k[l] = a * self.n + b;
+            sign[l] = s;
+        }
+        (k, sign)
     }
 
     /// The snapped direction of `d`.

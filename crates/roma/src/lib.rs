@@ -198,10 +198,45 @@ impl<W: Word> RomaMaps<W> {
     #[inline]
     pub fn occluded_ray(&self, ray: &Ray, t_max: f32) -> bool {
         let (k, sign) = self.candidates.select(ray.dir);
+        self.occluded_snapped(k, sign, ray, t_max)
+    }
+
+    /// [`RomaMaps::occluded_ray`] after selection: `ray` snapped to `sign · dirs[k]`.
+    #[inline(always)]
+    fn occluded_snapped(&self, k: usize, sign: f32, ray: &Ray, t_max: f32) -> bool {
         let mut q = self.to_map[k].apply(ray.origin);
         q.z += sign * self.origin_offset_cells;
         let depth = t_max / self.grid.cell_size_world - 2.0 * self.origin_offset_cells;
         depth > 0.0 && self.any_hit_column(k, sign > 0.0, q, depth)
+    }
+
+    /// [`RomaMaps::occluded_ray`] for a batch: stratum selection runs over [`directions::LANES`]
+    /// rays at a time ([`CandidateSet::select_lanes`], which the compiler vectorizes); the
+    /// transform, word fetch and bit test per ray. Answers equal `occluded_ray`'s, ray for ray
+    /// (acceptance check 7b).
+    pub fn occluded_rays(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        use directions::LANES;
+        let (mut chunks, mut outs) = (rays.chunks_exact(LANES), out.chunks_exact_mut(LANES));
+        for (rs, os) in (&mut chunks).zip(&mut outs) {
+            let (mut dx, mut dy, mut dz) = ([0f32; LANES], [0f32; LANES], [0f32; LANES]);
+            for l in 0..LANES {
+                (dx[l], dy[l], dz[l]) = (rs[l].0.dir.x, rs[l].0.dir.y, rs[l].0.dir.z);
+            }
+            let (k, sign) = self.candidates.select_lanes(&dx, &dy, &dz);
+            let mut q = [Vec3::ZERO; LANES];
+            for l in 0..LANES {
+                q[l] = self.to_map[k[l] as usize].apply(rs[l].0.origin);
+            }
+            for l in 0..LANES {
+                let mut q = q[l];
+                q.z += sign[l] * self.origin_offset_cells;
+                let depth = rs[l].1 / self.grid.cell_size_world - 2.0 * self.origin_offset_cells;
+                os[l] = depth > 0.0 && self.any_hit_column(k[l] as usize, sign[l] > 0.0, q, depth);
+            }
+        }
+        for ((ray, t_max), o) in chunks.remainder().iter().zip(outs.into_remainder()) {
+            *o = self.occluded_ray(ray, *t_max);
+        }
     }
 
     /// Un-snapped any-hit of the segment `from → to` (world) through the OM of its direction's
@@ -352,6 +387,10 @@ fn build_maps<W: Word>(triangles: &[[Vec3; 3]], grid: Grid, candidates: Candidat
 impl Visibility for Roma {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         with_maps!(self, m => m.occluded_ray(ray, t_max))
+    }
+
+    fn occluded_batch(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        with_maps!(self, m => m.occluded_rays(rays, out))
     }
 }
 

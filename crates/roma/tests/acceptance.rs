@@ -397,6 +397,41 @@ fn check_07_stratum_selection() {
     }
 }
 
+/// 7b (ours): the batch path (`Visibility::occluded_batch`, stratum selection over SIMD lanes)
+/// answers exactly as the per-ray path, ray for ray — including axis-aligned, polar and
+/// zero-length directions, infinite and tiny `t_max`, origins outside the grid, and a batch
+/// length that is not a multiple of the lane count.
+#[test]
+fn check_07b_batch_equals_per_ray() {
+    use glimpse_trace::Visibility;
+    let scene = glimpse_scene::builtin::cornell();
+    let frame = scene.at(0.0);
+    let mut rng = Rng::new(71, 0);
+    let b = frame.bounds;
+    let mut rays: Vec<(Ray, f32)> = (0..20_003)
+        .map(|_| {
+            let o = b.min + (b.max - b.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 1.2 - (b.max - b.min) * 0.1;
+            let t = if rng.below(3) == 0 { f32::INFINITY } else { rng.next_f32() * (b.max - b.min).length() };
+            (Ray::new(o, uniform_sphere(rng.next_2d())), t)
+        })
+        .collect();
+    for d in [Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::ZERO, Vec3::new(1.0, 1.0, 0.0).normalize()] {
+        rays.push((Ray::new(b.center(), d), f32::INFINITY));
+        rays.push((Ray::new(b.center(), d), 1e-6));
+    }
+    for r in [32u32, 64, 128] {
+        for n in [4u32, 8] {
+            let roma = Roma::build(&frame, &RomaParams { resolution: r, n, ..Default::default() }, 5, 0);
+            let mut batch = vec![false; rays.len()];
+            roma.occluded_batch(&rays, &mut batch);
+            let differ = rays.iter().zip(&batch).filter(|((ray, t), o)| roma.occluded(ray, *t) != **o).count();
+            let occluded = batch.iter().filter(|&&o| o).count();
+            println!("check 7b: {r}³, n = {n}: {} rays, {occluded} occluded; batch ≠ per-ray for {differ}", rays.len());
+            assert_eq!(differ, 0);
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // 8: storage
 

@@ -32,6 +32,15 @@ pub use glimpse_scene::SceneFrame;
 /// and benchmarks can swap one for another.
 pub trait Visibility: Send + Sync {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool;
+
+    /// `out[i] = occluded(rays[i])` for a batch of independent rays (`out.len() == rays.len()`).
+    /// Backends whose per-ray work vectorizes across rays (ROMA's stratum selection) override
+    /// it, as a GPU runs a warp of rays together; the default answers one ray at a time.
+    fn occluded_batch(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        for ((ray, t_max), o) in rays.iter().zip(out) {
+            *o = self.occluded(ray, *t_max);
+        }
+    }
 }
 
 /// Visibility that also finds the first hit.
