@@ -13,6 +13,7 @@
 
 use glimpse_core::{Image, Rng, Vec2, Vec3};
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::metrics::epsilon;
 use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
 use glimpse_trace::GBuffer;
@@ -182,6 +183,9 @@ pub struct LightsIsm {
     pub params: IsmParams,
     pub settings: Settings,
     pub maps: Option<ImperfectShadowMaps>,
+    /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
+    /// reported in `Stats::metrics`).
+    pub epsilon: bool,
 }
 
 impl LightsIsm {
@@ -190,7 +194,7 @@ impl LightsIsm {
             id: "lights-ism",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through imperfect shadow maps (points, one octahedral map per light, pull-push); resolution, points, bias, lights",
+            description: "every light at every pixel through imperfect shadow maps (points, one octahedral map per light, pull-push); resolution, points, bias, lights, epsilon",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-ism", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsIsm::new(scene, settings, params)?))
@@ -205,6 +209,7 @@ impl LightsIsm {
             params: IsmParams::default().read(params)?,
             settings: *settings,
             maps: None,
+            epsilon: params.bool("epsilon", true)?,
         })
     }
 }
@@ -237,6 +242,10 @@ impl Technique for LightsIsm {
                 (s.albedo / PI * e, lookups)
             })
         })?;
+        if self.epsilon {
+            let e = epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |l, _, s| maps.shadowed(l, s.position, s.normal));
+            stats.metrics = e.to_metrics();
+        }
         Ok(stats)
     }
 }

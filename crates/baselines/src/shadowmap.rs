@@ -12,6 +12,7 @@
 
 use glimpse_core::{Image, Vec3};
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::metrics::epsilon;
 use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
 use glimpse_trace::GBuffer;
@@ -199,6 +200,9 @@ pub struct LightsShadowMap {
     pub params: ShadowMapParams,
     pub settings: Settings,
     pub maps: Option<CubeShadowMaps>,
+    /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
+    /// reported in `Stats::metrics`).
+    pub epsilon: bool,
 }
 
 impl LightsShadowMap {
@@ -207,7 +211,7 @@ impl LightsShadowMap {
             id: "lights-shadowmap",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through one cube shadow map per light (the voxel-array paper's SM baseline); resolution, bias, lights",
+            description: "every light at every pixel through one cube shadow map per light (the voxel-array paper's SM baseline); resolution, bias, lights, epsilon",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-shadowmap", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsShadowMap::new(scene, settings, params)?))
@@ -222,6 +226,7 @@ impl LightsShadowMap {
             params: ShadowMapParams::default().read(params)?,
             settings: *settings,
             maps: None,
+            epsilon: params.bool("epsilon", true)?,
         })
     }
 }
@@ -254,6 +259,10 @@ impl Technique for LightsShadowMap {
                 (s.albedo / PI * e, lookups)
             })
         })?;
+        if self.epsilon {
+            let e = epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |l, _, s| maps.shadowed(l, s.position, s.normal));
+            stats.metrics = e.to_metrics();
+        }
         Ok(stats)
     }
 }

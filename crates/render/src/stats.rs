@@ -10,6 +10,10 @@ pub struct Stats {
     pub memory_bytes: usize,
     /// Rays traced (any kind), for rays-per-second summaries.
     pub rays: u64,
+    /// Error measures the technique took of its own decisions against the exact tracer, outside
+    /// the timed stages (e.g. `eps_v`, `eps_s` of `lights-voxarray`'s shadow decisions, in %);
+    /// `glimpse eval` adds them to the run's metrics.
+    pub metrics: Vec<(String, f64)>,
 }
 
 impl Stats {
@@ -33,6 +37,7 @@ impl Stats {
         self.stages.extend(other.stages);
         self.memory_bytes = self.memory_bytes.max(other.memory_bytes);
         self.rays += other.rays;
+        self.metrics.extend(other.metrics);
     }
 }
 

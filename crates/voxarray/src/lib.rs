@@ -17,7 +17,6 @@
 pub mod compress;
 pub mod directions;
 pub mod dynamic;
-pub mod epsilon;
 pub mod query;
 pub mod row;
 pub mod technique;
@@ -28,6 +27,8 @@ pub use directions::Directions;
 pub use row::Row;
 pub use voxelize::Grid;
 
+/// ε_v and ε_s (moved to glimpse-render so the baselines report them too).
+pub use glimpse_render::metrics::epsilon;
 use glimpse_core::{Ray, Vec3};
 use glimpse_render::direct::PunctualSample;
 use glimpse_render::{ParamError, Params, TechniqueInfo};

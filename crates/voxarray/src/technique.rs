@@ -68,6 +68,9 @@ pub struct LightsVoxArray {
     pub type_params: VoxArrayParams,
     pub settings: Settings,
     pub structure: Option<Structure>,
+    /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
+    /// reported in `Stats::metrics`, so `glimpse eval` lists them).
+    pub epsilon: bool,
 }
 
 impl LightsVoxArray {
@@ -76,7 +79,7 @@ impl LightsVoxArray {
             id: "lights-voxarray",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights",
+            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
@@ -102,6 +105,7 @@ impl LightsVoxArray {
             type_params: VoxArrayParams { resolution: type_resolution, ..p },
             settings: *settings,
             structure: None,
+            epsilon: params.bool("epsilon", true)?,
         })
     }
 }
@@ -193,6 +197,10 @@ impl Technique for LightsVoxArray {
                 })
                 .sum()
         });
+        if self.epsilon {
+            let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| vis.occluded_from_surface(ps, s.normal));
+            stats.metrics = e.to_metrics();
+        }
         Ok(stats)
     }
 }

@@ -551,15 +551,20 @@ fn check_15_technique_alg4_static_rigid_deforming() {
             Some(glimpse_voxarray::technique::Structure::Deforming(_)) => "deforming (Alg. 6)",
             None => "none",
         };
+        let metric = |k: &str| st.metrics.iter().find(|(n, _)| n == k).map(|m| m.1);
         println!(
-            "{name}: {kind}, prepare {:?}, memory {:.1} KiB, {} shadow queries, mean radiance {:.4} vs lights-exact {:.4}",
+            "{name}: {kind}, prepare {:?}, memory {:.1} KiB, {} shadow queries, mean radiance {:.4} vs lights-exact {:.4}, reported {:?}",
             prep.stages.iter().map(|(s, ms)| format!("{s} {ms:.0} ms")).collect::<Vec<_>>(),
             st.memory_bytes as f64 / 1024.0,
             st.rays,
             sum / img.pixels.len() as f64,
-            sum_ref / ref_img.pixels.len() as f64
+            sum_ref / ref_img.pixels.len() as f64,
+            st.metrics
         );
         assert!(st.rays > 0);
+        // ε is reported for eval (param `epsilon`, on by default): 0 ≤ |ε_s| ≤ ε_v ≤ 100 %.
+        let (eps_v, eps_s) = (metric("eps_v_pct").unwrap(), metric("eps_s_pct").unwrap());
+        assert!((0.0..=100.0).contains(&eps_v) && eps_s <= eps_v + 1e-9 && eps_v < 50.0, "{eps_v} {eps_s}");
         assert!(sum > 0.3 * sum_ref && sum < 2.0 * sum_ref);
     }
 }

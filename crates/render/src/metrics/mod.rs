@@ -14,6 +14,7 @@
 //! - [`Metrics`]: all image metrics at once.
 
 pub mod colormap;
+pub mod epsilon;
 pub mod error;
 pub mod error_map;
 pub mod flip;

@@ -10,9 +10,9 @@
 //! only the decisions that reach the image (lights in front of the surface; the others are
 //! treated as agreeing), still over n.
 
-use glimpse_render::direct::{self, PunctualSample, Shading};
-use glimpse_render::lights::light_visibility;
-use glimpse_render::metrics::{ShadowErrors, shadow_errors_from_visibility};
+use crate::direct::{self, PunctualSample, Shading};
+use crate::lights::light_visibility;
+use crate::metrics::{ShadowErrors, shadow_errors_from_visibility};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::{ExactTracer, GBuffer};
 use rayon::prelude::*;
@@ -54,4 +54,15 @@ pub fn epsilon(
     let masked = |v: &[u64]| v.iter().zip(&reference.facing).map(|(a, f)| a & f).collect::<Vec<u64>>();
     let facing = shadow_errors_from_visibility(&masked(&test), &masked(&reference.visible), n, Some(&covered)).unwrap_or_default();
     Epsilon { lights: n, all, facing }
+}
+
+impl Epsilon {
+    /// The measures `glimpse eval` reports (percent): ε_v and |ε_s| over all lights, signed ε_s.
+    pub fn to_metrics(&self) -> Vec<(String, f64)> {
+        vec![
+            ("eps_v_pct".to_owned(), 100.0 * self.all.epsilon_v()),
+            ("eps_s_pct".to_owned(), 100.0 * self.all.epsilon_s_abs()),
+            ("eps_s_signed_pct".to_owned(), 100.0 * self.all.epsilon_s_signed()),
+        ]
+    }
 }
