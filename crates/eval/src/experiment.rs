@@ -222,7 +222,12 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             ms,
             memory_bytes: r.prepare.memory_bytes.max(r.render.memory_bytes),
             rays: r.prepare.rays + r.render.rays,
-            metrics: metrics.to_pairs().into_iter().map(|(k, v)| (k.to_owned(), v)).collect(),
+            metrics: metrics
+                .to_pairs()
+                .into_iter()
+                .map(|(k, v)| (k.to_owned(), v))
+                .chain(r.prepare.metrics.iter().chain(&r.render.metrics).cloned())
+                .collect(),
             params: params.effective(),
             images,
             sweep,

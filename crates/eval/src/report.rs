@@ -18,7 +18,7 @@ th{{background:#f4f4f4}} td:first-child,td:nth-child(2){{text-align:left}} figur
 figcaption{{font-size:12px;text-align:center}}</style></head><body>
 <h1>glimpse eval: {scene}</h1>
 <p>{}×{} pixels, {} spp (references {} spp), seed {}, time {} s. GBuffer {:.1} ms. Peak memory {}.</p>
-<h2>Results</h2><table><tr><th>technique</th><th>reference</th><th>prepare ms</th><th>render ms</th><th>total ms</th><th>memory MB</th><th>RMSE</th><th>relMSE</th><th>PSNR dB</th><th>SSIM</th><th>FLIP</th></tr>"#,
+<h2>Results</h2><table><tr><th>technique</th><th>reference</th><th>prepare ms</th><th>render ms</th><th>total ms</th><th>memory MB</th><th>RMSE</th><th>relMSE</th><th>PSNR dB</th><th>SSIM</th><th>FLIP</th><th>other</th></tr>"#,
         r.size[0],
         r.size[1],
         r.spp,
@@ -28,11 +28,16 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
         r.gbuffer_ms,
         r.peak_rss_bytes.map_or("unknown".into(), |b| format!("{:.1} MB", b as f64 / 1048576.0))
     );
+    // Measures a technique reports of itself (Stats::metrics), e.g. ε_v and ε_s.
+    let other_metrics = |run: &crate::experiment::Run| {
+        let standard = ["rmse", "mse", "relmse", "psnr", "ssim", "flip", "flip_ldr"];
+        run.metrics.iter().filter(|(k, _)| !standard.contains(&k.as_str())).map(|(k, v)| format!("{k} {v:.4}")).collect::<Vec<_>>().join(", ")
+    };
     let metric = |run: &crate::experiment::Run, k: &str| run.metrics.get(k).map_or("–".into(), |v| format!("{v:.5}"));
     for run in &r.runs {
         let _ = write!(
             h,
-            "<tr><td>{}</td><td>{}{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+            "<tr><td>{}</td><td>{}{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
             html_escape(&run.technique),
             html_escape(&run.reference),
             if run.reference_cached { " (cached)" } else { "" },
@@ -44,7 +49,8 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
             metric(run, "relmse"),
             metric(run, "psnr"),
             metric(run, "ssim"),
-            metric(run, "flip")
+            metric(run, "flip"),
+            html_escape(&other_metrics(run))
         );
     }
     h += "</table>";
