@@ -11,12 +11,10 @@
 //! The lookup moves the shaded point along its normal by `bias` texel footprints and compares
 //! distances with the same tolerance. `prepare` builds the maps; `render` only looks them up.
 
-use glimpse_core::{Image, Rng, Vec2, Vec3};
-use glimpse_render::direct::{self, Shading};
-use glimpse_render::metrics::epsilon;
-use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
+use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
+use glimpse_core::{Rng, Vec2, Vec3};
+use glimpse_render::{ParamError, Params, TechniqueInfo};
 use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
-use glimpse_trace::GBuffer;
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -178,14 +176,29 @@ fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<Vec3> {
         .collect()
 }
 
-pub struct LightsIsm {
-    pub lights: u32,
-    pub params: IsmParams,
-    pub settings: Settings,
-    pub maps: Option<ImperfectShadowMaps>,
-    /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
-    /// reported in `Stats::metrics`).
-    pub epsilon: bool,
+/// `lights-ism`: [`ImperfectShadowMaps`] through the shared many-light shell.
+pub type LightsIsm = LightsWithMaps<ImperfectShadowMaps>;
+
+impl PerLightMaps for ImperfectShadowMaps {
+    type Params = IsmParams;
+    const ID: &'static str = "lights-ism";
+    const STAGE: &'static str = "imperfect shadow maps";
+
+    fn read_params(defaults: IsmParams, params: &Params) -> Result<IsmParams, ParamError> {
+        defaults.read(params)
+    }
+
+    fn build(frame: &SceneFrame, lights: &[WorldLight], p: &IsmParams) -> Self {
+        ImperfectShadowMaps::build(frame, lights, p)
+    }
+
+    fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
+        ImperfectShadowMaps::shadowed(self, l, p, n)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        ImperfectShadowMaps::memory_bytes(self)
+    }
 }
 
 impl LightsIsm {
@@ -200,53 +213,6 @@ impl LightsIsm {
                 Ok(Box::new(LightsIsm::new(scene, settings, params)?))
             },
         }
-    }
-
-    pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        let all = (scene.lights.len() as u32).max(1);
-        Ok(Self {
-            lights: params.u32("lights", all, 1, u32::MAX)?,
-            params: IsmParams::default().read(params)?,
-            settings: *settings,
-            maps: None,
-            epsilon: params.bool("epsilon", true)?,
-        })
-    }
-}
-
-impl Technique for LightsIsm {
-    fn id(&self) -> &'static str {
-        "lights-ism"
-    }
-
-    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        let mut stats = Stats::default();
-        let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-        self.maps = Some(stats.time("imperfect shadow maps", || ImperfectShadowMaps::build(&ctx.frame, lights, &self.params)));
-        stats.memory_bytes = self.maps.as_ref().map_or(0, |m| m.memory_bytes());
-        Ok(stats)
-    }
-
-    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
-        let Some(maps) = &self.maps else {
-            return Err(RenderError::Unsupported { technique: "lights-ism".into(), message: "render before prepare".into() });
-        };
-        let mut stats = Stats { memory_bytes: maps.memory_bytes(), ..Default::default() };
-        let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-        stats.rays = stats.time("shade", || {
-            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng| {
-                let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
-                    return (Vec3::ZERO, 0);
-                };
-                let (e, lookups) = direct::punctual_irradiance_with(lights, &s, |l, _| maps.shadowed(l, s.position, s.normal));
-                (s.albedo / PI * e, lookups)
-            })
-        })?;
-        if self.epsilon {
-            let e = epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |l, _, s| maps.shadowed(l, s.position, s.normal));
-            stats.metrics = e.to_metrics();
-        }
-        Ok(stats)
     }
 }
 

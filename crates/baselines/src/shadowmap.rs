@@ -10,14 +10,11 @@
 //! Directional lights are left unshadowed (the many-light scenes have none). `prepare` builds
 //! every map (in parallel over lights); `render` only looks them up.
 
-use glimpse_core::{Image, Vec3};
-use glimpse_render::direct::{self, Shading};
-use glimpse_render::metrics::epsilon;
-use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
+use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
+use glimpse_core::Vec3;
+use glimpse_render::{ParamError, Params, TechniqueInfo};
 use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
-use glimpse_trace::GBuffer;
 use rayon::prelude::*;
-use std::f32::consts::PI;
 
 /// Shadow-map settings. `Default`: 128² per face (the paper's per-scene values range 36–384;
 /// pick with `resolution=` for equal ε_v), 1.5 texels of normal offset and depth tolerance.
@@ -195,14 +192,29 @@ fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
     }
 }
 
-pub struct LightsShadowMap {
-    pub lights: u32,
-    pub params: ShadowMapParams,
-    pub settings: Settings,
-    pub maps: Option<CubeShadowMaps>,
-    /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
-    /// reported in `Stats::metrics`).
-    pub epsilon: bool,
+/// `lights-shadowmap`: [`CubeShadowMaps`] through the shared many-light shell.
+pub type LightsShadowMap = LightsWithMaps<CubeShadowMaps>;
+
+impl PerLightMaps for CubeShadowMaps {
+    type Params = ShadowMapParams;
+    const ID: &'static str = "lights-shadowmap";
+    const STAGE: &'static str = "shadow maps";
+
+    fn read_params(defaults: ShadowMapParams, params: &Params) -> Result<ShadowMapParams, ParamError> {
+        defaults.read(params)
+    }
+
+    fn build(frame: &SceneFrame, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
+        CubeShadowMaps::build(frame, lights, p)
+    }
+
+    fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
+        CubeShadowMaps::shadowed(self, l, p, n)
+    }
+
+    fn memory_bytes(&self) -> usize {
+        CubeShadowMaps::memory_bytes(self)
+    }
 }
 
 impl LightsShadowMap {
@@ -218,59 +230,13 @@ impl LightsShadowMap {
             },
         }
     }
-
-    pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        let all = (scene.lights.len() as u32).max(1);
-        Ok(Self {
-            lights: params.u32("lights", all, 1, u32::MAX)?,
-            params: ShadowMapParams::default().read(params)?,
-            settings: *settings,
-            maps: None,
-            epsilon: params.bool("epsilon", true)?,
-        })
-    }
-}
-
-impl Technique for LightsShadowMap {
-    fn id(&self) -> &'static str {
-        "lights-shadowmap"
-    }
-
-    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        let mut stats = Stats::default();
-        let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-        self.maps = Some(stats.time("shadow maps", || CubeShadowMaps::build(&ctx.frame, lights, &self.params)));
-        stats.memory_bytes = self.maps.as_ref().map_or(0, |m| m.memory_bytes());
-        Ok(stats)
-    }
-
-    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
-        let Some(maps) = &self.maps else {
-            return Err(RenderError::Unsupported { technique: "lights-shadowmap".into(), message: "render before prepare".into() });
-        };
-        let mut stats = Stats { memory_bytes: maps.memory_bytes(), ..Default::default() };
-        let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-        stats.rays = stats.time("shade", || {
-            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng| {
-                let Some(s) = Shading::from_gbuffer(gbuffer, i) else {
-                    return (Vec3::ZERO, 0);
-                };
-                let (e, lookups) = direct::punctual_irradiance_with(lights, &s, |l, _| maps.shadowed(l, s.position, s.normal));
-                (s.albedo / PI * e, lookups)
-            })
-        })?;
-        if self.epsilon {
-            let e = epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |l, _, s| maps.shadowed(l, s.position, s.normal));
-            stats.metrics = e.to_metrics();
-        }
-        Ok(stats)
-    }
 }
 
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use glimpse_trace::ExactTracer;
+    use glimpse_render::direct::{self, Shading};
+    use glimpse_trace::{ExactTracer, GBuffer};
 
     /// Agreement with exact shadow rays on the Cornell box with eight point lights inside it.
     pub(crate) fn agreement(shadowed: impl Fn(&SceneFrame, &[WorldLight], usize, Vec3, Vec3) -> bool) -> (f64, usize) {
