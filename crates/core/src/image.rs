@@ -135,7 +135,20 @@ impl Image {
         }
         let io = |message: String| ImageError::Io { path: path.to_owned(), message };
         match extension(path).as_str() {
-            "exr" | "hdr" => {
+            "exr" => {
+                // Scanline blocks, ZIP compression, increasing line order: the most widely
+                // readable lossless form (the `image` crate's encoder writes 64² RLE tiles in
+                // random line order, which NVIDIA's `flip` tool cannot load).
+                use exr::prelude::{Encoding, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage};
+                let w = self.width as usize;
+                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                    let c = self.pixels[p.y() * w + p.x()];
+                    (c.x, c.y, c.z)
+                });
+                let layer = Layer::new((w, self.height as usize), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, channels);
+                exr::image::Image::from_layer(layer).write().to_file(path).map_err(|e| io(e.to_string()))
+            }
+            "hdr" => {
                 let data: Vec<f32> = self.pixels.iter().flat_map(|p| p.to_array()).collect();
                 let buf = ::image::Rgb32FImage::from_raw(self.width, self.height, data).expect("size matches pixels");
                 buf.save(path).map_err(|e| io(e.to_string()))

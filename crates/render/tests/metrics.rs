@@ -371,58 +371,6 @@ except ImportError:
         Ok((mean, exposures))
     }
 
-    /// Writes a single-part, scanline, uncompressed, FLOAT RGB OpenEXR file. `Image::write`'s
-    /// EXR (the `image` crate: 64×64 tiles, RLE, random line order) makes the tinyexr loader of
-    /// `flip-evaluator` 1.7 crash (segmentation fault), so the cross-check writes this plainest
-    /// form of the format itself.
-    fn write_scanline_exr(path: &Path, image: &Image) {
-        let mut h: Vec<u8> = vec![0x76, 0x2f, 0x31, 0x01, 2, 0, 0, 0];
-        let mut attribute = |name: &str, kind: &str, value: &[u8]| {
-            for s in [name, kind] {
-                h.extend_from_slice(s.as_bytes());
-                h.push(0);
-            }
-            h.extend_from_slice(&(value.len() as i32).to_le_bytes());
-            h.extend_from_slice(value);
-        };
-        let mut channels = Vec::new();
-        for name in ["B", "G", "R"] {
-            channels.extend_from_slice(name.as_bytes());
-            channels.push(0);
-            channels.extend_from_slice(&2i32.to_le_bytes()); // FLOAT
-            channels.extend_from_slice(&[0, 0, 0, 0]); // pLinear, reserved
-            channels.extend_from_slice(&1i32.to_le_bytes());
-            channels.extend_from_slice(&1i32.to_le_bytes());
-        }
-        channels.push(0);
-        let (w, hgt) = (image.width as i32, image.height as i32);
-        let window: Vec<u8> = [0, 0, w - 1, hgt - 1].iter().flat_map(|v: &i32| v.to_le_bytes()).collect();
-        attribute("channels", "chlist", &channels);
-        attribute("compression", "compression", &[0]);
-        attribute("dataWindow", "box2i", &window);
-        attribute("displayWindow", "box2i", &window);
-        attribute("lineOrder", "lineOrder", &[0]);
-        attribute("pixelAspectRatio", "float", &1f32.to_le_bytes());
-        attribute("screenWindowCenter", "v2f", &[0; 8]);
-        attribute("screenWindowWidth", "float", &1f32.to_le_bytes());
-        h.push(0);
-        let row_bytes = 3 * 4 * image.width as usize;
-        let first = h.len() + 8 * image.height as usize;
-        for y in 0..image.height as usize {
-            h.extend_from_slice(&((first + y * (8 + row_bytes)) as u64).to_le_bytes());
-        }
-        for y in 0..image.height {
-            h.extend_from_slice(&(y as i32).to_le_bytes());
-            h.extend_from_slice(&(row_bytes as i32).to_le_bytes());
-            for c in [2, 1, 0] {
-                for x in 0..image.width {
-                    h.extend_from_slice(&image.get(x, y)[c].to_le_bytes());
-                }
-            }
-        }
-        std::fs::write(path, h).unwrap();
-    }
-
     fn temp_dir(name: &str) -> PathBuf {
         let dir = std::env::temp_dir().join(format!("glimpse-metrics-{name}-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
@@ -474,12 +422,14 @@ except ImportError:
             ("×1.3 bias", Image { pixels: reference.pixels.iter().map(|p| *p * 1.3).collect(), ..reference.clone() }),
         ];
         let rp = dir.join("reference.exr");
-        write_scanline_exr(&rp, &reference);
+        // `Image::write`'s EXR (scanline, ZIP) is what `flip` reads here, so this also checks
+        // that NVIDIA's loader accepts our files.
+        reference.write(&rp, ToneMap::default()).unwrap();
         assert_eq!(Image::read(&rp).unwrap(), reference, "our EXR writer is exact");
         let mut worst = 0.0f64;
         for (i, (name, test)) in cases.iter().enumerate() {
             let tp = dir.join(format!("test{i}.exr"));
-            write_scanline_exr(&tp, test);
+            test.write(&tp, ToneMap::default()).unwrap();
             let ours = flip_hdr_with(test, &reference, HdrFlipExposures::from_reference(&reference)).unwrap();
             match reference_flip(&rp, &tp, "HDR") {
                 Err(reason) => {
