@@ -1,8 +1,164 @@
-//! Work in progress.
+//! glimpse-lightcuts: stochastic light cuts over VPLs (M. Tavasszy, "Stochastic Light Cut
+//! Exploration for Real-Time Dynamic Global Illumination", MSc thesis, TU Delft 2021; spec
+//! ../shared/specs/stochastic-lightcuts.md), with the thesis' baselines SST (Tatzgern et al. 2020)
+//! and RTSLC (Lin and Yuksel 2020), and the brute-force VPL sum as their ground truth.
+//!
+//! Modules, one stage of the thesis each: [`vpl`] (§4.1: bounded RSM, pVPL estimate, filter,
+//! hierarchical warping), [`tree`] (§4.2: keys, bitonic sort, perfect SST, parallel build),
+//! [`cut`] (§5.1: shallow cuts, blending, mock cuts), [`sample`] (§5.2–5.3: traversal and cluster
+//! evaluation), [`upsample`] (Ch. 6: joint bilateral upsampling), [`technique`] (the four ids).
+//! docs/techniques/lightcuts.md lists every choice where the thesis is silent.
 
-use glimpse_render::TechniqueInfo;
+pub mod cut;
+pub mod sample;
+pub mod technique;
+pub mod tree;
+pub mod upsample;
+pub mod vpl;
+
+pub use glimpse_render::Stopwatch;
+pub use technique::VplTechnique;
+pub use tree::{Flatness, Sst, SstNode, Vpl};
+
+use glimpse_render::{ParamError, Params, TechniqueInfo};
+
+/// The four techniques.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Variant {
+    /// `vpl-exact`: every VPL, exact visibility.
+    Exact,
+    /// `vpl-lightcuts`: the thesis' method.
+    Lightcuts,
+    /// `vpl-sst`: traversal from the root, stopping at flat nodes.
+    Sst,
+    /// `vpl-rtslc`: traversal from the cut nodes to leaves.
+    Rtslc,
+}
+
+impl Variant {
+    pub fn id(self) -> &'static str {
+        match self {
+            Variant::Exact => "vpl-exact",
+            Variant::Lightcuts => "vpl-lightcuts",
+            Variant::Sst => "vpl-sst",
+            Variant::Rtslc => "vpl-rtslc",
+        }
+    }
+}
+
+/// Parameters (`--set key=value`); `Default` is the thesis' setting where it gives one.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LightcutsParams {
+    /// `vpl_count`: total VPLs, a power of two (thesis 4096).
+    pub vpl_count: u32,
+    /// `rsm_resolution`: per light, a power of two (thesis 512).
+    pub rsm_resolution: u32,
+    /// `pvpl_samples`: G-buffer samples per pVPL (thesis "a few"; ours 4).
+    pub pvpl_samples: u32,
+    /// `pvpl_radius`: unit of the capped 1/x² radius (thesis: capped to 1, scene units).
+    pub pvpl_radius: f32,
+    /// `filter_radius`, `filter_sigma`: the edge-aware Gaussian (texels) [UNSPEC: ours 2, 1].
+    pub filter_radius: u32,
+    pub filter_sigma: f32,
+    /// `defensive`: flux PDF fraction mixed into the selection PDF (ours: 0.05, unbiased weights).
+    pub defensive: f32,
+    /// `clamp`: 1/d² is clamped at d = clamp × scene diagonal, for every VPL and cluster alike
+    /// (the thesis does not say; ours 0.01).
+    pub clamp: f32,
+    /// `sim_normal`: n_min of Eq. 5.3 (cosine) [UNSPEC: ours 0.9].
+    pub sim_normal: f32,
+    /// `sim_distance`: d_max of Eq. 5.3 as a fraction of the scene diagonal [UNSPEC: ours 0.05].
+    pub sim_distance: f32,
+    /// `block`: light cut block size k (thesis 8).
+    pub block: u32,
+    /// `v_min`, `sigma_max`: Eq. 5.6 (thesis 0.7, 0.3; σ_z is the variance along the normal).
+    pub flatness: Flatness,
+    /// `half_res`: GI at half resolution + joint bilateral upsampling (thesis option; off).
+    pub half_res: bool,
+    /// `include_direct`: add the direct light (the thesis' final image); default true.
+    pub include_direct: bool,
+    /// `direct_samples`: area-light/environment samples for the direct light (ours 16).
+    pub direct_samples: u32,
+}
+
+impl Default for LightcutsParams {
+    fn default() -> Self {
+        Self {
+            vpl_count: 4096,
+            rsm_resolution: 512,
+            pvpl_samples: 4,
+            pvpl_radius: 1.0,
+            filter_radius: 2,
+            filter_sigma: 1.0,
+            defensive: 0.05,
+            clamp: 0.01,
+            sim_normal: 0.9,
+            sim_distance: 0.05,
+            block: 8,
+            flatness: Flatness::default(),
+            half_res: false,
+            include_direct: true,
+            direct_samples: 16,
+        }
+    }
+}
+
+fn power_of_two(key: &str, v: u32) -> Result<u32, ParamError> {
+    if v.is_power_of_two() {
+        Ok(v)
+    } else {
+        Err(ParamError::Invalid { key: key.into(), value: v.to_string(), message: "must be a power of two".into() })
+    }
+}
+
+impl LightcutsParams {
+    /// Reads the keys `variant` uses (`vpl-exact` reads only those that change the VPLs, the
+    /// clamp and the direct light, so eval's reference sees the same VPL set).
+    pub fn read(params: &Params, variant: Variant) -> Result<Self, ParamError> {
+        let d = Self::default();
+        let mut p = Self {
+            vpl_count: power_of_two("vpl_count", params.u32("vpl_count", d.vpl_count, 2, 1 << 20)?)?,
+            rsm_resolution: power_of_two("rsm_resolution", params.u32("rsm_resolution", d.rsm_resolution, 2, 4096)?)?,
+            pvpl_samples: params.u32("pvpl_samples", d.pvpl_samples, 0, 256)?,
+            pvpl_radius: params.f32("pvpl_radius", d.pvpl_radius, 1e-6, f32::MAX)?,
+            filter_radius: params.u32("filter_radius", d.filter_radius, 0, 16)?,
+            filter_sigma: params.f32("filter_sigma", d.filter_sigma, 1e-3, 100.0)?,
+            defensive: params.f32("defensive", d.defensive, 0.0, 1.0)?,
+            clamp: params.f32("clamp", d.clamp, 0.0, 1.0)?,
+            sim_normal: params.f32("sim_normal", d.sim_normal, -1.0, 1.0)?,
+            sim_distance: params.f32("sim_distance", d.sim_distance, 0.0, f32::INFINITY)?,
+            include_direct: params.bool("include_direct", d.include_direct)?,
+            direct_samples: params.u32("direct_samples", d.direct_samples, 0, 4096)?,
+            ..d
+        };
+        if variant != Variant::Exact {
+            p.block = params.u32("block", d.block, 1, 256)?;
+            p.flatness = Flatness {
+                v_min: params.f32("v_min", d.flatness.v_min, 0.0, 2.0)?,
+                sigma_max: params.f32("sigma_max", d.flatness.sigma_max, 0.0, f32::INFINITY)?,
+            };
+            p.half_res = params.bool("half_res", d.half_res)?;
+        }
+        Ok(p)
+    }
+
+    /// The VPL generation settings for a scene of diagonal `diag`.
+    pub fn vpl_params(&self, diag: f32) -> vpl::VplParams {
+        vpl::VplParams {
+            count: self.vpl_count,
+            rsm_resolution: self.rsm_resolution,
+            pvpl_samples: self.pvpl_samples,
+            pvpl_radius: self.pvpl_radius,
+            filter_radius: self.filter_radius,
+            filter_sigma: self.filter_sigma,
+            defensive: self.defensive,
+            clamp: self.clamp * diag,
+            similarity: technique::similarity(self, diag),
+        }
+    }
+}
 
 /// The techniques of this crate, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
-    Vec::new()
+    [Variant::Exact, Variant::Lightcuts, Variant::Sst, Variant::Rtslc].into_iter().map(VplTechnique::info).collect()
 }
