@@ -31,7 +31,12 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
     // Measures a technique reports of itself (Stats::metrics), e.g. ε_v and ε_s.
     let other_metrics = |run: &crate::experiment::Run| {
         let standard = ["rmse", "mse", "relmse", "psnr", "ssim", "flip", "flip_ldr"];
-        run.metrics.iter().filter(|(k, _)| !standard.contains(&k.as_str())).map(|(k, v)| format!("{k} {v:.4}")).collect::<Vec<_>>().join(", ")
+        run.metrics
+            .iter()
+            .filter(|(k, _)| !standard.contains(&k.as_str()))
+            .map(|(k, v)| format!("{k} {v:.4}"))
+            .collect::<Vec<_>>()
+            .join(", ")
     };
     let metric = |run: &crate::experiment::Run, k: &str| run.metrics.get(k).map_or("–".into(), |v| format!("{v:.5}"));
     for run in &r.runs {

@@ -27,10 +27,10 @@ pub use directions::Directions;
 pub use row::Row;
 pub use voxelize::Grid;
 
-/// ε_v and ε_s (moved to glimpse-render so the baselines report them too).
-pub use glimpse_render::metrics::epsilon;
 use glimpse_core::{Ray, Vec3};
 use glimpse_render::direct::PunctualSample;
+/// ε_v and ε_s (moved to glimpse-render so the baselines report them too).
+pub use glimpse_render::metrics::epsilon;
 use glimpse_render::{ParamError, Params, TechniqueInfo};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::Visibility;

@@ -198,7 +198,8 @@ impl Technique for LightsVoxArray {
                 .sum()
         });
         if self.epsilon {
-            let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| vis.occluded_from_surface(ps, s.normal));
+            let e =
+                crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| vis.occluded_from_surface(ps, s.normal));
             stats.metrics = e.to_metrics();
         }
         Ok(stats)
