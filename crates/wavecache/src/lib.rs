@@ -1,8 +1,239 @@
-//! Work in progress.
+//! glimpse-wavecache: real-time all-frequency global illumination with Haar-wavelet radiance
+//! caching (Xing, Pan, Chen, Wu, Wang and Wang 2024, "Real-time all-frequency global illumination
+//! with radiance caching"), for static scenes, against the path tracer `pt`.
+//!
+//! - [`halfcube`]: the half-cube map layout and texel solid angles (Sec. 4.2, [29]);
+//! - [`haar`]: the non-standard 2D Haar quadtree (Eq. 13), pruning by β, fp16 ([`half`]), the
+//!   coefficient dot product (Eq. 6, the paper's ⊗);
+//! - [`brdf`]: GGX BRDF × cosine tables over the ω_o grid, bilinear blending (Sec. 4.2, 5.2);
+//! - [`points`]: weighted sample elimination (Sec. 4.1, Eq. 7 corrected) and the octrees (Sec. 4.3);
+//! - [`bake`]: the lighting precomputation (Sec. 4.3, 6);
+//! - [`cache`]: the whole precomputation, its disk cache and its storage;
+//! - [`technique`]: `wavecache`, the runtime (Sec. 5, Eqs. 15–21).
+//!
+//! [`WavecacheParams::default`] is sized for a 2-core CPU (a few minutes of precomputation at
+//! 320×240); [`WavecacheParams::paper`] holds the paper's values (GPU-hours of precomputation).
 
-use glimpse_render::TechniqueInfo;
+pub mod bake;
+pub mod brdf;
+pub mod cache;
+pub mod haar;
+pub mod half;
+pub mod halfcube;
+pub mod points;
+pub mod technique;
+
+pub use cache::WaveCache;
+pub use technique::Wavecache;
+
+use glimpse_render::bsdf::BrdfModel;
+use glimpse_render::{ParamError, Params, TechniqueInfo};
+
+/// How a mesh is shaded (paper Sec. 4.1's split).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[repr(u32)]
+pub enum Class {
+    /// Irradiance cache (Eq. 19).
+    Diffuse = 0,
+    /// Radiance half-cube maps ⊗ BRDF trees (Eq. 20).
+    Glossy = 1,
+    /// Roughness below the mirror threshold: traced as a perfect mirror (Eq. 18), no cache.
+    Mirror = 2,
+}
+
+impl Class {
+    pub fn from_u32(v: u32) -> Class {
+        match v {
+            0 => Class::Diffuse,
+            1 => Class::Glossy,
+            _ => Class::Mirror,
+        }
+    }
+}
+
+/// The frame ω_o is expressed in for the BRDF lookup, against a radiance map stored in the cache
+/// point's frame (the paper leaves the mismatch between the pixel's and the point's normals
+/// implicit).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum WoFrame {
+    /// The paper: ω_o in the pixel's shading frame, used as is against the point's map (the lobe
+    /// lands off by the angle between the two normals).
+    Pixel,
+    /// ω_o in the point's frame (the lobe off by twice that angle).
+    Point,
+    /// Ours (default): the ω_o whose mirror direction about the point's normal is the pixel's
+    /// mirror direction, so sharp lobes look up the map where the true reflection is.
+    Reflect,
+}
+
+/// Every parameter of the technique (`--set key=value`). Paper values in the comments.
+#[derive(Clone, Debug, PartialEq)]
+pub struct WavecacheParams {
+    /// ω_o grid over cos θ_o (paper 172 [INF: the first factor of "172×1080"]).
+    pub brdf_grid_u1: u32,
+    /// ω_o grid over φ_o (paper 1080).
+    pub brdf_grid_u2: u32,
+    /// BRDF half-cube resolution N (paper 128).
+    pub brdf_res: u32,
+    /// Strata per axis inside each BRDF texel (paper: stratified, count unspecified).
+    pub brdf_strata: u32,
+    /// Multiplies the paper's BRDF β (0.1 for r ≤ 0.2, else 0.2) to give a β relative to the root
+    /// scaling coefficient (the paper's absolute scale is unknown).
+    pub brdf_beta_scale: f32,
+    /// Table 2's radiance-map resolution is divided by this (paper 1).
+    pub map_scale: u32,
+    /// Path-traced samples per radiance texel (paper 128).
+    pub texel_samples: u32,
+    /// Radiance β relative to the map's root scaling coefficient (paper: 1000 in its own units).
+    pub radiance_beta: f32,
+    /// Paths per diffuse point's irradiance.
+    pub irradiance_samples: u32,
+    /// Cache points over all diffuse meshes, by area (paper: 81,579–1,317,000 per scene).
+    pub diffuse_points: u32,
+    /// Cache points over all glossy meshes, by area.
+    pub glossy_points: u32,
+    /// Fewest points per mesh.
+    pub min_points: u32,
+    /// Scattering vertices of the precompute paths, counted as `pt` counts them (pt's default 8).
+    pub max_depth: u32,
+    /// Sparsification strength for the irradiance (diffuse) points (0 = off).
+    pub sparsify: f32,
+    /// Points whose energy is below this are dropped (Sec. 6's low-energy points; 0 = none).
+    pub min_energy: f32,
+    /// m: candidates examined per query (0: exact argmax).
+    pub query_m: u32,
+    /// λ of the position/normal score.
+    pub normal_weight: f32,
+    /// Normal cutoff in degrees.
+    pub normal_cutoff_deg: f32,
+    /// Quadtree layers traversed in the product (0: all).
+    pub layers: u32,
+    /// Roughness below which a surface is a mirror (paper 0.1).
+    pub mirror_roughness: f32,
+    /// Mirror chain depth (paper 4).
+    pub mirror_depth: u32,
+    /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
+    /// materials; glTF has no pure Lambertian).
+    pub diffuse_roughness: f32,
+    /// `pbr` (pt's default) or `lambert` (every material Lambertian, as `pt brdf=lambert`).
+    pub brdf: BrdfModel,
+    /// How ω_o enters the BRDF lookup at a cache point of another normal (spec §5.4).
+    pub wo_frame: WoFrame,
+    /// Read and write the disk cache.
+    pub disk_cache: bool,
+    /// Show a progress bar during the precomputation.
+    pub progress: bool,
+}
+
+impl Default for WavecacheParams {
+    fn default() -> Self {
+        Self {
+            brdf_grid_u1: 32,
+            brdf_grid_u2: 128,
+            brdf_res: 32,
+            brdf_strata: 2,
+            brdf_beta_scale: 0.01,
+            map_scale: 4,
+            texel_samples: 16,
+            radiance_beta: 1e-3,
+            irradiance_samples: 512,
+            diffuse_points: 20000,
+            glossy_points: 4000,
+            min_points: 16,
+            max_depth: 8,
+            sparsify: 1.0,
+            min_energy: 0.0,
+            query_m: 32,
+            normal_weight: 1.0,
+            normal_cutoff_deg: 30.0,
+            layers: 0,
+            mirror_roughness: 0.1,
+            mirror_depth: 4,
+            diffuse_roughness: 0.8,
+            brdf: BrdfModel::Pbr,
+            wo_frame: WoFrame::Reflect,
+            disk_cache: true,
+            progress: true,
+        }
+    }
+}
+
+impl WavecacheParams {
+    /// The paper's settings where it gives them (Sec. 4, 6, Table 2).
+    pub fn paper() -> Self {
+        Self { brdf_grid_u1: 172, brdf_grid_u2: 1080, brdf_res: 128, map_scale: 1, texel_samples: 128, ..Self::default() }
+    }
+
+    /// Reads every key (defaults above; `profile=paper` starts from [`WavecacheParams::paper`]).
+    pub fn read(params: &Params) -> Result<Self, ParamError> {
+        let base = match params.choice("profile", "cpu", &["cpu", "paper"])?.as_str() {
+            "paper" => Self::paper(),
+            _ => Self::default(),
+        };
+        let pow2 = |key: &str, v: u32| -> Result<u32, ParamError> {
+            if v.is_power_of_two() {
+                Ok(v)
+            } else {
+                Err(ParamError::Invalid { key: key.into(), value: v.to_string(), message: "must be a power of two".into() })
+            }
+        };
+        Ok(Self {
+            brdf_grid_u1: params.u32("brdf_grid_u1", base.brdf_grid_u1, 1, 4096)?,
+            brdf_grid_u2: params.u32("brdf_grid_u2", base.brdf_grid_u2, 1, 8192)?,
+            brdf_res: pow2("brdf_res", params.u32("brdf_res", base.brdf_res, 4, 512)?)?,
+            brdf_strata: params.u32("brdf_strata", base.brdf_strata, 1, 64)?,
+            brdf_beta_scale: params.f32("brdf_beta_scale", base.brdf_beta_scale, 0.0, 1e6)?,
+            map_scale: pow2("map_scale", params.u32("map_scale", base.map_scale, 1, 32)?)?,
+            texel_samples: params.u32("texel_samples", base.texel_samples, 1, 1 << 20)?,
+            radiance_beta: params.f32("radiance_beta", base.radiance_beta, 0.0, 1e6)?,
+            irradiance_samples: params.u32("irradiance_samples", base.irradiance_samples, 1, 1 << 24)?,
+            diffuse_points: params.u32("diffuse_points", base.diffuse_points, 1, 50_000_000)?,
+            glossy_points: params.u32("glossy_points", base.glossy_points, 1, 50_000_000)?,
+            min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
+            max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
+            sparsify: params.f32("sparsify", base.sparsify, 0.0, 1.0)?,
+            min_energy: params.f32("min_energy", base.min_energy, 0.0, f32::INFINITY)?,
+            query_m: params.u32("query_m", base.query_m, 0, u32::MAX)?,
+            normal_weight: params.f32("normal_weight", base.normal_weight, 0.0, 1e6)?,
+            normal_cutoff_deg: params.f32("normal_cutoff_deg", base.normal_cutoff_deg, 0.0, 180.0)?,
+            layers: params.u32("layers", base.layers, 0, 32)?,
+            mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
+            mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,
+            diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
+            brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {
+                "lambert" => BrdfModel::Lambert,
+                _ => BrdfModel::Pbr,
+            },
+            wo_frame: match params.choice("wo_frame", "reflect", &["reflect", "pixel", "point"])?.as_str() {
+                "pixel" => WoFrame::Pixel,
+                "point" => WoFrame::Point,
+                _ => WoFrame::Reflect,
+            },
+            disk_cache: params.bool("cache", base.disk_cache)?,
+            progress: params.bool("progress", base.progress)?,
+        })
+    }
+
+    /// Radiance-map resolution for a roughness: Table 2 / `map_scale` (at least 4).
+    pub fn map_resolution(&self, roughness: f32) -> Option<u32> {
+        bake::table2_resolution(roughness).map(|n| (n / self.map_scale).max(4))
+    }
+
+    /// The class of a material.
+    pub fn classify(&self, m: &glimpse_scene::Material) -> Class {
+        if self.brdf == BrdfModel::Lambert || m.is_emissive() {
+            Class::Diffuse
+        } else if m.roughness < self.mirror_roughness {
+            Class::Mirror
+        } else if m.metallic <= 0.0 && m.roughness >= self.diffuse_roughness {
+            Class::Diffuse
+        } else {
+            Class::Glossy
+        }
+    }
+}
 
 /// The techniques of this crate, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
-    Vec::new()
+    vec![Wavecache::info()]
 }

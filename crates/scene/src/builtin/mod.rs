@@ -4,6 +4,7 @@
 mod cornell;
 mod cornell_dynamic;
 mod deforming;
+mod glossy;
 mod many_lights;
 mod sky;
 
@@ -13,11 +14,12 @@ use glimpse_core::{Vec2, Vec3};
 pub use cornell::cornell;
 pub use cornell_dynamic::cornell_dynamic;
 pub use deforming::deforming;
+pub use glossy::glossy;
 pub use many_lights::{DEFAULT_LIGHT_COUNT, many_lights};
 pub use sky::sky;
 
 /// Every built-in scene, in the order `glimpse scenes` lists them.
-pub const NAMES: &[&str] = &["cornell", "cornell-dynamic", "many-lights", "deforming", "sky"];
+pub const NAMES: &[&str] = &["cornell", "cornell-dynamic", "many-lights", "deforming", "sky", "glossy"];
 
 /// Animated built-in scenes are authored over `0..CLIP_S` seconds: keyframe tracks do not loop,
 /// so each one covers the whole clip (and holds its last key after it).
@@ -34,6 +36,9 @@ pub fn describe(name: &str) -> &'static str {
         "sky" => {
             "an arch, a table, boxes and spheres on a large ground under a procedural sky with a low visible sun; one ball circles them"
         }
+        "glossy" => {
+            "static glossy objects (GGX roughness 0.25–0.45: gold sphere, red box, blue sphere) on a rough floor under a smooth sky and a ceiling area light"
+        }
         _ => "",
     }
 }
@@ -45,6 +50,7 @@ pub fn build(name: &str) -> Result<Scene, SceneError> {
         "many-lights" => many_lights(DEFAULT_LIGHT_COUNT),
         "deforming" => deforming(),
         "sky" => sky(),
+        "glossy" => glossy(),
         _ => return Err(SceneError::UnknownScene { name: name.to_owned(), known: NAMES.join(", ") }),
     };
     Ok(scene)
@@ -203,7 +209,7 @@ mod tests {
             assert!(scene.triangle_count() <= 50_000, "{name} is too heavy for the tests");
             assert!(scene.camera.is_some(), "{name} has no camera");
             assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
-            assert_eq!(scene.is_animated(), *name != "cornell", "{name}: only the plain Cornell box is static");
+            assert_eq!(scene.is_animated(), !["cornell", "glossy"].contains(name), "{name}: only cornell and glossy are static");
         }
     }
 

@@ -1,0 +1,459 @@
+//! Lighting precomputation (paper Sec. 4.3 and Sec. 6): per mesh, cache points by weighted
+//! sample elimination; diffuse meshes store the irradiance (Eq. 14), glossy meshes the path-traced
+//! incident-radiance half-cube map at the Table 2 resolution for their roughness, Haar-pruned
+//! (β) in fp16; points that add little over their neighbours are removed (Sec. 6); one octree per
+//! mesh.
+//!
+//! The path tracer that fills the maps is the ground truth's (`pt`) estimator (NEE to area lights,
+//! the environment and punctual lights with MIS, the same BRDF, Russian roulette, the same depth
+//! count: the cache point is vertex 1, so its incident paths have `max_depth − 1` vertices).
+//! Choices where the paper is silent (spec §5.5–5.7):
+//! - a radiance texel holds the mean incident radiance over the texel (stratified samples, uniform
+//!   in the texel's face area, weighted by the cube Jacobian / ΔΩ) — the ΔΩ is on the BRDF side;
+//!   directions below the geometric surface carry nothing (the ground truth's rule);
+//! - irradiance: the same integral ∫ L cos dω is estimated with NEE + MIS at the point (a white
+//!   Lambertian vertex, E = π L_o) instead of summing a traced map — same expectation, far less
+//!   variance for the same rays; punctual lights are left out at the point itself (they are
+//!   traced at runtime, Eq. 15–16), kept at later vertices (their indirect light is cached);
+//! - sparsification (irradiance points only, the paper's "low-frequency" objects): a point whose mean relative energy difference to its neighbours (within
+//!   2 r_max) is below the cloud's mean is removed with probability
+//!   `sparsify × (1 − diff / mean)`, never next to a point already removed.
+
+use crate::brdf;
+use crate::haar::{self, HaarNode, TreeRef};
+use crate::halfcube::HalfCube;
+use crate::points::{self, OctNode, SurfaceSample, WorldMesh};
+use crate::{Class, WavecacheParams};
+use bytemuck::{Pod, Zeroable};
+use glimpse_core::{Frame, Ray, Rng, Vec2, Vec3, is_finite3, luminance};
+use glimpse_render::bsdf::{BrdfModel, Bsdf};
+use glimpse_render::direct::{self, EmitterIndex};
+use glimpse_render::pt::{ALL_PUNCTUAL, RR_DEPTH};
+use glimpse_scene::SceneFrame;
+use glimpse_trace::{ExactTracer, SurfacePoint};
+use rayon::prelude::*;
+use std::f32::consts::PI;
+
+/// A cache point: where it is, its normals, its energy (luminance of the irradiance or of the
+/// map's mean radiance) and its payload (index into the irradiance or radiance-tree array).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct CachePoint {
+    pub position: [f32; 3],
+    pub normal: [f32; 3],
+    pub shading_normal: [f32; 3],
+    pub energy: f32,
+    pub payload: u32,
+}
+
+/// Per instance: its class and where its octree and points are.
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct MeshCache {
+    /// [`Class`] as u32.
+    pub class: u32,
+    pub material: u32,
+    pub first_node: u32,
+    pub node_count: u32,
+    pub first_point: u32,
+    pub point_count: u32,
+    pub r_max: f32,
+    /// Radiance-map resolution (glossy), 0 otherwise.
+    pub map_res: u32,
+    /// Points before sparsification.
+    pub points_before: u32,
+    pub _pad: u32,
+}
+
+/// The path tracer that fills the cache: `pt`'s estimator, from a given vertex.
+pub struct Integrator<'a> {
+    pub frame: &'a SceneFrame<'a>,
+    pub tracer: &'a ExactTracer,
+    pub emitters: EmitterIndex,
+    pub max_depth: u32,
+    pub model: BrdfModel,
+}
+
+/// A path vertex.
+#[derive(Clone, Copy)]
+struct Vertex {
+    position: Vec3,
+    normal: Vec3,
+    shading_normal: Vec3,
+    base: Vec3,
+    metallic: f32,
+    roughness: f32,
+}
+
+impl<'a> Integrator<'a> {
+    pub fn new(frame: &'a SceneFrame<'a>, tracer: &'a ExactTracer, max_depth: u32, model: BrdfModel) -> Self {
+        Self { frame, tracer, emitters: EmitterIndex::new(frame), max_depth, model }
+    }
+
+    fn vertex_of(&self, sp: &SurfacePoint) -> Vertex {
+        let m = &self.frame.scene.materials[sp.material as usize];
+        Vertex {
+            position: sp.position,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            base: sp.base_color(self.frame),
+            metallic: m.metallic,
+            roughness: m.roughness,
+        }
+    }
+
+    /// Radiance arriving along `ray` (emission of the first hit, or the environment, included).
+    pub fn radiance_along(&self, ray: &Ray, rng: &mut Rng) -> (Vec3, u64) {
+        let env = self.frame.scene.environment.as_ref();
+        let Some(hit) = self.tracer.closest_hit(ray, f32::INFINITY) else {
+            return (env.map_or(Vec3::ZERO, |e| e.radiance(ray.dir)), 1);
+        };
+        let sp = SurfacePoint::from_hit(self.frame, ray, &hit);
+        let le = sp.emission(self.frame);
+        if self.max_depth < 2 {
+            return (le, 1);
+        }
+        let (l, rays) = self.path(self.vertex_of(&sp), -ray.dir, 2, None, true, rng);
+        (le + l, rays + 1)
+    }
+
+    /// Irradiance ∫ L cos dω at a point (geometric normal `ng`, shading `ns`) without the direct
+    /// light of punctual lights: π × the radiance a white Lambertian vertex reflects.
+    pub fn irradiance(&self, p: Vec3, ng: Vec3, ns: Vec3, rng: &mut Rng) -> (Vec3, u64) {
+        let v = Vertex { position: p, normal: ng, shading_normal: ns, base: Vec3::ONE, metallic: 0.0, roughness: 1.0 };
+        let (l, rays) = self.path(v, ns, 1, Some(BrdfModel::Lambert), false, rng);
+        (l * PI, rays)
+    }
+
+    /// `pt`'s path loop from vertex `v` at depth `first` (`first_model` overrides the first
+    /// vertex's BRDF; `first_punctual` = false skips punctual lights there). Returns the radiance
+    /// leaving `v` towards `wo` (without `v`'s emission) and the rays traced.
+    fn path(
+        &self,
+        mut v: Vertex,
+        mut wo: Vec3,
+        first: u32,
+        first_model: Option<BrdfModel>,
+        first_punctual: bool,
+        rng: &mut Rng,
+    ) -> (Vec3, u64) {
+        let frame = self.frame;
+        let env = frame.scene.environment.as_ref();
+        let lights = &frame.lights;
+        let (mut beta, mut l, mut rays) = (Vec3::ONE, Vec3::ZERO, 0u64);
+        for depth in first..=self.max_depth {
+            let model = if depth == first { first_model.unwrap_or(self.model) } else { self.model };
+            let Some(bsdf) = Bsdf::new(model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
+                break;
+            };
+            let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
+            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
+                let cos = bsdf.cos(ls.wi);
+                let f = bsdf.eval(ls.wi);
+                if cos > 0.0 && f.max_element() > 0.0 {
+                    rays += 1;
+                    if !self.tracer.occluded(&ls.shadow, ls.t_max) {
+                        l += beta * f * ls.radiance * (cos * direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) / ls.pdf);
+                    }
+                }
+            }
+            let u_env = rng.next_2d();
+            if let Some(env) = env {
+                let (d, le, pdf) = env.sample(u_env);
+                let cos = bsdf.cos(d);
+                if pdf > 0.0 && cos > 0.0 {
+                    let f = bsdf.eval(d);
+                    if f.max_element() > 0.0 {
+                        rays += 1;
+                        if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
+                            l += beta * f * le * (cos * direct::power_heuristic(pdf, bsdf.pdf(d)) / pdf);
+                        }
+                    }
+                }
+            }
+            let u_light = rng.next_f32();
+            if depth != first || first_punctual {
+                let (chosen, scale) = if lights.len() <= ALL_PUNCTUAL {
+                    (&lights[..], 1.0)
+                } else {
+                    let k = ((u_light * lights.len() as f32) as usize).min(lights.len() - 1);
+                    (&lights[k..k + 1], lights.len() as f32)
+                };
+                for light in chosen {
+                    let ps = direct::punctual(light, v.position, v.normal);
+                    let cos = bsdf.cos(ps.wi);
+                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                        continue;
+                    }
+                    let f = bsdf.eval(ps.wi);
+                    if f.max_element() <= 0.0 {
+                        continue;
+                    }
+                    rays += 1;
+                    if !self.tracer.occluded(&ps.shadow, ps.t_max) {
+                        l += beta * f * ps.irradiance * (cos * scale);
+                    }
+                }
+            }
+            let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
+            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
+                break;
+            };
+            beta *= s.f * (s.cos / s.pdf);
+            let ray = Ray::spawn(v.position, v.normal, s.wi);
+            rays += 1;
+            let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
+                if let Some(env) = env {
+                    l += beta * env.radiance(s.wi) * direct::power_heuristic(s.pdf, env.pdf(s.wi));
+                }
+                break;
+            };
+            let sp = SurfacePoint::from_hit(frame, &ray, &hit);
+            let le = sp.emission(frame);
+            if le.max_element() > 0.0 {
+                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, sp.normal.dot(-s.wi).abs());
+                l += beta * le * direct::power_heuristic(s.pdf, p_light);
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            if depth >= RR_DEPTH {
+                let q = beta.max_element().min(1.0);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            wo = -s.wi;
+            v = self.vertex_of(&sp);
+        }
+        (l, rays)
+    }
+
+    /// The incident-radiance half-cube map (mean radiance per texel, row-major N×N) at a point
+    /// whose map frame is `frame` (z = its shading normal) and geometric normal `ng`.
+    pub fn radiance_map(&self, p: Vec3, ng: Vec3, frame: &Frame, res: u32, samples: u32, rng: &mut Rng) -> (Vec<[f64; 3]>, u64) {
+        let h = HalfCube::new(res);
+        let k = (samples as f32).sqrt().ceil().max(1.0) as u32; // strata per axis
+        let s_count = samples.max(1);
+        let texel_area = (4.0 / res as f64).powi(2);
+        let mut rays = 0;
+        let mut img = vec![[0.0f64; 3]; h.texels()];
+        for y in 0..res {
+            for x in 0..res {
+                let d_omega = h.solid_angle(x, y);
+                if d_omega <= 0.0 {
+                    continue;
+                }
+                let mut sum = [0.0f64; 3];
+                for s in 0..s_count {
+                    // Stratified on a k×k grid (the first `samples` strata in a random rotation).
+                    let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
+                    let f = (cell + rng.next_2d()) / k as f32;
+                    let uv = h.uv(x, y, f);
+                    let Some(local) = HalfCube::direction(uv) else {
+                        continue;
+                    };
+                    let dir = frame.to_world(local).normalize();
+                    if dir.dot(ng) <= 0.0 {
+                        continue;
+                    }
+                    let (l, r) = self.radiance_along(&Ray::spawn(p, ng, dir), rng);
+                    rays += r;
+                    if !is_finite3(l) {
+                        continue;
+                    }
+                    let w = HalfCube::jacobian(uv) as f64;
+                    for c in 0..3 {
+                        sum[c] += l[c] as f64 * w;
+                    }
+                }
+                let scale = texel_area / s_count as f64 / d_omega;
+                img[(y * res + x) as usize] = sum.map(|v| v * scale);
+            }
+        }
+        (img, rays)
+    }
+}
+
+/// Table 2: radiance-map resolution by roughness (None below the mirror threshold 0.1).
+pub fn table2_resolution(roughness: f32) -> Option<u32> {
+    if roughness < 0.1 {
+        None
+    } else if roughness <= 0.35 {
+        Some(128)
+    } else if roughness <= 0.55 {
+        Some(64)
+    } else if roughness <= 0.65 {
+        Some(32)
+    } else {
+        Some(16)
+    }
+}
+
+/// Per-point lighting of one instance, in parallel over points.
+pub struct BakedMesh {
+    pub samples: Vec<SurfaceSample>,
+    pub energy: Vec<f32>,
+    pub irradiance: Vec<Vec3>,
+    pub maps: Vec<(Vec<HaarNode>, TreeRef)>,
+    pub rays: u64,
+}
+
+/// One baked point: energy, irradiance, radiance tree (glossy), rays traced.
+type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, u64);
+
+/// Bakes the points of one instance (`class` Diffuse or Glossy).
+pub fn bake_points(
+    integ: &Integrator,
+    samples: Vec<SurfaceSample>,
+    class: Class,
+    map_res: u32,
+    p: &WavecacheParams,
+    seed: u64,
+    tick: &(dyn Fn(u64) + Sync),
+) -> BakedMesh {
+    let results: Vec<PointResult> = samples
+        .par_iter()
+        .enumerate()
+        .map(|(i, s)| {
+            let mut rng = Rng::new(seed, i as u64 ^ 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(seed + 1));
+            let out = match class {
+                Class::Glossy => {
+                    let frame = crate::halfcube::map_frame(s.shading_normal);
+                    let (img, rays) = integ.radiance_map(s.position, s.normal, &frame, map_res, p.texel_samples, &mut rng);
+                    let mut nodes = Vec::new();
+                    let t = haar::build(&img, map_res, p.radiance_beta as f64, &mut nodes);
+                    let e = luminance(nodes[0].c());
+                    (e, Vec3::ZERO, Some((nodes, t)), rays)
+                }
+                _ => {
+                    let (mut sum, mut rays) = (Vec3::ZERO, 0);
+                    for _ in 0..p.irradiance_samples {
+                        let (e, r) = integ.irradiance(s.position, s.normal, s.shading_normal, &mut rng);
+                        rays += r;
+                        if is_finite3(e) {
+                            sum += e;
+                        }
+                    }
+                    let e = sum / p.irradiance_samples.max(1) as f32;
+                    (luminance(e), e, None, rays)
+                }
+            };
+            tick(1);
+            out
+        })
+        .collect();
+    let mut b = BakedMesh { samples, energy: Vec::new(), irradiance: Vec::new(), maps: Vec::new(), rays: 0 };
+    for (e, irr, map, rays) in results {
+        b.energy.push(e);
+        b.irradiance.push(irr);
+        if let Some(m) = map {
+            b.maps.push(m);
+        }
+        b.rays += rays;
+    }
+    b
+}
+
+/// Sec. 6's sparsification: which points to keep (see the module comment for the rule).
+pub fn sparsify(positions: &[Vec3], energy: &[f32], r_max: f32, strength: f32, seed: u64) -> Vec<bool> {
+    let n = positions.len();
+    let mut keep = vec![true; n];
+    if strength <= 0.0 || n < 8 {
+        return keep;
+    }
+    let cell = 2.0 * r_max;
+    let key = |p: Vec3| ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64);
+    let mut grid: std::collections::HashMap<(i64, i64, i64), Vec<u32>> = std::collections::HashMap::new();
+    for (i, p) in positions.iter().enumerate() {
+        grid.entry(key(*p)).or_default().push(i as u32);
+    }
+    let neighbours: Vec<Vec<u32>> = (0..n)
+        .map(|i| {
+            let (kx, ky, kz) = key(positions[i]);
+            let mut out = Vec::new();
+            for dx in -1..=1 {
+                for dy in -1..=1 {
+                    for dz in -1..=1 {
+                        for &j in grid.get(&(kx + dx, ky + dy, kz + dz)).map_or(&[][..], |v| &v[..]) {
+                            if j as usize != i && positions[i].distance(positions[j as usize]) < cell {
+                                out.push(j);
+                            }
+                        }
+                    }
+                }
+            }
+            out
+        })
+        .collect();
+    let diff: Vec<f32> = (0..n)
+        .map(|i| {
+            let nb = &neighbours[i];
+            if nb.is_empty() {
+                return f32::INFINITY;
+            }
+            nb.iter()
+                .map(|&j| {
+                    let (a, b) = (energy[i], energy[j as usize]);
+                    (a - b).abs() / (0.5 * (a + b)).max(1e-6)
+                })
+                .sum::<f32>()
+                / nb.len() as f32
+        })
+        .collect();
+    let finite: Vec<f32> = diff.iter().copied().filter(|d| d.is_finite()).collect();
+    if finite.is_empty() {
+        return keep;
+    }
+    let mean = finite.iter().sum::<f32>() / finite.len() as f32;
+    let mut rng = Rng::new(seed, 0x5ba7);
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    for i in (1..n).rev() {
+        order.swap(i, rng.below(i as u32 + 1) as usize);
+    }
+    for &i in &order {
+        let i = i as usize;
+        if !diff[i].is_finite() || mean <= 0.0 || neighbours[i].iter().any(|&j| !keep[j as usize]) {
+            continue;
+        }
+        let p_remove = strength * (1.0 - diff[i] / mean).max(0.0);
+        if rng.next_f32() < p_remove {
+            keep[i] = false;
+        }
+    }
+    keep
+}
+
+/// World-space mesh of instance `i`.
+pub fn world_mesh(frame: &SceneFrame, i: usize) -> WorldMesh {
+    let scene = frame.scene;
+    let inst = &scene.instances[i];
+    let mesh = &scene.meshes[inst.mesh as usize];
+    let m = frame.transforms[i];
+    let pos = &frame.positions[inst.mesh as usize];
+    let nor = &frame.normals[inst.mesh as usize];
+    let nm = glimpse_core::Mat3::from_mat4(m).inverse().transpose();
+    let mut wm = WorldMesh { triangles: Vec::with_capacity(mesh.indices.len()), normals: Vec::with_capacity(mesh.indices.len()) };
+    for t in &mesh.indices {
+        let idx = t.map(|k| k as usize);
+        let tri = idx.map(|k| m.transform_point3(pos[k]));
+        let g = (tri[1] - tri[0]).cross(tri[2] - tri[0]).normalize_or(Vec3::Y);
+        let ns = if nor.is_empty() { [g; 3] } else { idx.map(|k| (nm * nor[k]).normalize_or(g)) };
+        wm.triangles.push(tri);
+        wm.normals.push(ns);
+    }
+    wm
+}
+
+/// Octree over the kept points of one mesh; returns the nodes and the leaf order.
+pub fn octree(points: &[CachePoint]) -> (Vec<OctNode>, Vec<u32>) {
+    let pos: Vec<Vec3> = points.iter().map(|p| Vec3::from(p.position)).collect();
+    let nor: Vec<Vec3> = points.iter().map(|p| Vec3::from(p.shading_normal)).collect();
+    points::build_octree(&pos, &nor)
+}
+
+/// The glossy BRDF tables' β for a roughness: the paper's (0.1/0.2) × `scale`, relative.
+pub fn brdf_beta(roughness: f32, scale: f32) -> f64 {
+    brdf::paper_brdf_beta(roughness) * scale as f64
+}

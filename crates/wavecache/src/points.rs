@@ -1,0 +1,358 @@
+//! Cache points and their octrees (paper Sec. 4.1 and 4.3, Sec. 6):
+//! - Poisson-disk points per mesh by Yuksel's weighted sample elimination [21]: 5M candidates,
+//!   area-proportional, W_ij = (1 − min(d_ij, 2r_max)/(2 r_max))^α with α = 8 and
+//!   r_max = √(A / (2√3 M)) — Eq. 7 as printed divides by r_max, a typo against [21] (spec
+//!   §5.1); neighbours are found in a uniform grid of cell 2 r_max (the paper says KD-tree: the
+//!   same neighbour sets), the heap is a binary heap with lazy deletion;
+//! - one octree per mesh, split uniformly while a leaf holds more than 30 points (depth guard 16);
+//!   bottom-up AABBs and normalized mean normals;
+//! - the query (Sec. 5.2, formula unspecified): maximize s = −|x − p|/r_max + λ (n_x · n_p), points
+//!   with n_x · n_p < cos 30° only when no other exists, by branch and bound over the octree
+//!   (a node is skipped when even its nearest corner and a perfect normal cannot beat the best),
+//!   visiting nearer nodes first and stopping after `m` candidates (0: no cap, exact argmax).
+
+use bytemuck::{Pod, Zeroable};
+use glimpse_core::{Aabb, Rng, Vec3};
+use std::cmp::Ordering;
+use std::collections::{BinaryHeap, HashMap};
+
+/// Yuksel's α.
+pub const ALPHA: f32 = 8.0;
+/// Candidates per output point.
+pub const OVERSAMPLING: usize = 5;
+/// Octree leaves split above this many points.
+pub const LEAF_POINTS: usize = 30;
+/// Octree depth guard (coincident points).
+pub const MAX_DEPTH: u32 = 16;
+
+/// A sampled surface point: position, geometric normal (the triangle's winding) and shading
+/// normal (interpolated, on the geometric normal's side).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SurfaceSample {
+    pub position: Vec3,
+    pub normal: Vec3,
+    pub shading_normal: Vec3,
+}
+
+/// A world-space triangle mesh (one instance).
+pub struct WorldMesh {
+    pub triangles: Vec<[Vec3; 3]>,
+    /// Per-vertex shading normals per triangle (geometric when the mesh has none).
+    pub normals: Vec<[Vec3; 3]>,
+}
+
+impl WorldMesh {
+    pub fn area(&self) -> f32 {
+        self.triangles.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).sum()
+    }
+
+    /// `count` area-proportional random points.
+    pub fn sample(&self, count: usize, rng: &mut Rng) -> Vec<SurfaceSample> {
+        let mut cdf = Vec::with_capacity(self.triangles.len());
+        let mut acc = 0.0f64;
+        for t in &self.triangles {
+            acc += 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64;
+            cdf.push(acc);
+        }
+        if acc <= 0.0 {
+            return Vec::new();
+        }
+        (0..count)
+            .map(|_| {
+                let u = rng.next_f32() as f64 * acc;
+                let i = cdf.partition_point(|&c| c <= u).min(cdf.len() - 1);
+                let t = self.triangles[i];
+                let b = glimpse_core::sampling::uniform_triangle(rng.next_2d());
+                let b0 = 1.0 - b.x - b.y;
+                let position = t[0] * b0 + t[1] * b.x + t[2] * b.y;
+                let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y);
+                let ns = self.normals[i];
+                let mut shading_normal = (ns[0] * b0 + ns[1] * b.x + ns[2] * b.y).normalize_or(normal);
+                if shading_normal.dot(normal) < 0.0 {
+                    shading_normal = -shading_normal;
+                }
+                SurfaceSample { position, normal, shading_normal }
+            })
+            .collect()
+    }
+}
+
+/// r_max = √(A / (2√3 M)) for M points on area A (Yuksel, 2D).
+pub fn r_max(area: f32, m: usize) -> f32 {
+    (area / (2.0 * 3f32.sqrt() * m.max(1) as f32)).sqrt()
+}
+
+/// Yuksel's weight of a pair at distance d: (1 − min(d, 2 r_max)/(2 r_max))^α.
+pub fn weight(d: f32, r_max: f32) -> f32 {
+    (1.0 - d.min(2.0 * r_max) / (2.0 * r_max)).powf(ALPHA)
+}
+
+#[derive(PartialEq)]
+struct HeapItem(f32, u32);
+impl Eq for HeapItem {}
+impl PartialOrd for HeapItem {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for HeapItem {
+    fn cmp(&self, o: &Self) -> Ordering {
+        self.0.total_cmp(&o.0).then(o.1.cmp(&self.1))
+    }
+}
+
+/// Weighted sample elimination of `candidates` down to `m` (indices of the survivors, sorted).
+pub fn eliminate(candidates: &[Vec3], m: usize, r_max: f32) -> Vec<u32> {
+    let n = candidates.len();
+    if m >= n {
+        return (0..n as u32).collect();
+    }
+    let cell = (2.0 * r_max).max(1e-12);
+    let key = |p: Vec3| ((p.x / cell).floor() as i64, (p.y / cell).floor() as i64, (p.z / cell).floor() as i64);
+    let mut grid: HashMap<(i64, i64, i64), Vec<u32>> = HashMap::new();
+    for (i, p) in candidates.iter().enumerate() {
+        grid.entry(key(*p)).or_default().push(i as u32);
+    }
+    let neighbours = |i: usize| {
+        let (kx, ky, kz) = key(candidates[i]);
+        let mut out = Vec::new();
+        for dx in -1..=1 {
+            for dy in -1..=1 {
+                for dz in -1..=1 {
+                    if let Some(v) = grid.get(&(kx + dx, ky + dy, kz + dz)) {
+                        for &j in v {
+                            let d = candidates[i].distance(candidates[j as usize]);
+                            if j as usize != i && d < 2.0 * r_max {
+                                out.push((j, d));
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        out
+    };
+    let adjacency: Vec<Vec<(u32, f32)>> = (0..n).map(neighbours).collect();
+    let mut w: Vec<f32> = adjacency.iter().map(|a| a.iter().map(|&(_, d)| weight(d, r_max)).sum()).collect();
+    let mut alive = vec![true; n];
+    let mut heap: BinaryHeap<HeapItem> = w.iter().enumerate().map(|(i, &v)| HeapItem(v, i as u32)).collect();
+    let mut count = n;
+    while count > m {
+        let Some(HeapItem(v, i)) = heap.pop() else {
+            break;
+        };
+        let i = i as usize;
+        if !alive[i] || v != w[i] {
+            continue; // stale entry
+        }
+        alive[i] = false;
+        count -= 1;
+        for &(j, d) in &adjacency[i] {
+            let j = j as usize;
+            if alive[j] {
+                w[j] -= weight(d, r_max);
+                heap.push(HeapItem(w[j], j as u32));
+            }
+        }
+    }
+    (0..n as u32).filter(|&i| alive[i as usize]).collect()
+}
+
+/// M Poisson-disk points on `mesh` from 5M candidates (seeded).
+pub fn poisson_points(mesh: &WorldMesh, m: usize, seed: u64) -> Vec<SurfaceSample> {
+    let mut rng = Rng::new(seed, 0x5a11);
+    let cand = mesh.sample(OVERSAMPLING * m, &mut rng);
+    let pos: Vec<Vec3> = cand.iter().map(|c| c.position).collect();
+    eliminate(&pos, m, r_max(mesh.area(), m)).into_iter().map(|i| cand[i as usize]).collect()
+}
+
+/// An octree node: bounds, normalized mean normal, children (contiguous, non-empty ones only)
+/// or points (contiguous in the mesh's point order).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
+pub struct OctNode {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+    pub normal: [f32; 3],
+    pub first_child: u32,
+    pub child_count: u32,
+    pub first_point: u32,
+    pub point_count: u32,
+}
+
+/// Builds the octree over `points` (positions, normals), returning the nodes (root first) and the
+/// permutation of the points (leaf order).
+pub fn build_octree(positions: &[Vec3], normals: &[Vec3]) -> (Vec<OctNode>, Vec<u32>) {
+    let mut nodes = vec![OctNode::default()];
+    let mut order: Vec<u32> = (0..positions.len() as u32).collect();
+    let bounds = Aabb::from_points(positions);
+    split(&mut nodes, 0, &mut order, 0, positions, bounds, 0);
+    finish(&mut nodes, 0, &order, positions, normals);
+    (nodes, order)
+}
+
+fn split(nodes: &mut Vec<OctNode>, at: usize, order: &mut [u32], offset: u32, pos: &[Vec3], cell: Aabb, depth: u32) {
+    nodes[at].first_point = offset;
+    nodes[at].point_count = order.len() as u32;
+    if order.len() <= LEAF_POINTS || depth >= MAX_DEPTH {
+        return;
+    }
+    let c = (cell.min + cell.max) * 0.5;
+    let octant = |i: u32| {
+        let p = pos[i as usize];
+        (p.x > c.x) as usize | ((p.y > c.y) as usize) << 1 | ((p.z > c.z) as usize) << 2
+    };
+    order.sort_by_key(|&i| octant(i));
+    let mut ranges = Vec::new();
+    let mut start = 0;
+    for o in 0..8 {
+        let end = start + order[start..].iter().take_while(|&&i| octant(i) == o).count();
+        if end > start {
+            ranges.push((o, start, end));
+        }
+        start = end;
+    }
+    let first = nodes.len();
+    nodes[at].first_child = first as u32;
+    nodes[at].child_count = ranges.len() as u32;
+    nodes.resize(first + ranges.len(), OctNode::default());
+    for (k, &(o, s, e)) in ranges.iter().enumerate() {
+        let pick = |bit: usize, lo: f32, mid: f32, hi: f32| if o & bit != 0 { (mid, hi) } else { (lo, mid) };
+        let (x0, x1) = pick(1, cell.min.x, c.x, cell.max.x);
+        let (y0, y1) = pick(2, cell.min.y, c.y, cell.max.y);
+        let (z0, z1) = pick(4, cell.min.z, c.z, cell.max.z);
+        let sub = Aabb { min: Vec3::new(x0, y0, z0), max: Vec3::new(x1, y1, z1) };
+        split(nodes, first + k, &mut order[s..e], offset + s as u32, pos, sub, depth + 1);
+    }
+}
+
+/// Bottom-up: AABB of the points / union of the children, normal sum → normalized.
+fn finish(nodes: &mut [OctNode], at: usize, order: &[u32], pos: &[Vec3], normals: &[Vec3]) -> (Aabb, Vec3) {
+    let n = nodes[at];
+    let (mut b, mut sum) = (Aabb::EMPTY, Vec3::ZERO);
+    if n.child_count == 0 {
+        for &i in &order[n.first_point as usize..(n.first_point + n.point_count) as usize] {
+            b = b.grow(pos[i as usize]);
+            sum += normals[i as usize];
+        }
+    } else {
+        for k in 0..n.child_count {
+            let (cb, cs) = finish(nodes, (n.first_child + k) as usize, order, pos, normals);
+            b = b.union(cb);
+            sum += cs;
+        }
+    }
+    nodes[at].min = b.min.to_array();
+    nodes[at].max = b.max.to_array();
+    nodes[at].normal = sum.normalize_or(Vec3::Z).to_array();
+    (b, sum)
+}
+
+/// How a query scores points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct QueryParams {
+    /// r_max of the mesh's point cloud (distance unit).
+    pub r_max: f32,
+    /// λ, the normal term's weight.
+    pub normal_weight: f32,
+    /// cos of the normal cutoff (30°).
+    pub normal_cutoff: f32,
+    /// Candidates examined at most (0: all that can win).
+    pub max_candidates: u32,
+}
+
+const PREFERRED: f32 = 1.0e4;
+
+/// The mixed score of a point (with the bonus that ranks points inside the normal cutoff first).
+pub fn score(q: &QueryParams, x: Vec3, n: Vec3, p: Vec3, np: Vec3) -> f32 {
+    let c = n.dot(np);
+    -x.distance(p) / q.r_max + q.normal_weight * c + if c >= q.normal_cutoff { PREFERRED } else { 0.0 }
+}
+
+fn aabb_distance(n: &OctNode, x: Vec3) -> f32 {
+    let (lo, hi) = (Vec3::from(n.min), Vec3::from(n.max));
+    (lo - x).max(x - hi).max(Vec3::ZERO).length()
+}
+
+/// Index (into the mesh's points, leaf order) of the best point for (x, n), or `None` when
+/// the tree is empty. `positions`/`normals` are in leaf order.
+pub fn query(nodes: &[OctNode], positions: &[Vec3], normals: &[Vec3], q: &QueryParams, x: Vec3, n: Vec3) -> Option<u32> {
+    if nodes.is_empty() || positions.is_empty() {
+        return None;
+    }
+    let bound = |node: &OctNode| -aabb_distance(node, x) / q.r_max + q.normal_weight.abs() + PREFERRED;
+    let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
+    let mut examined = 0u32;
+    let mut stack: Vec<(f32, u32)> = vec![(bound(&nodes[0]), 0)];
+    while let Some((b, at)) = stack.pop() {
+        if b <= best {
+            continue;
+        }
+        if q.max_candidates > 0 && examined >= q.max_candidates && best_i.is_some() {
+            break;
+        }
+        let node = &nodes[at as usize];
+        if node.child_count == 0 {
+            for i in node.first_point..node.first_point + node.point_count {
+                let s = score(q, x, n, positions[i as usize], normals[i as usize]);
+                examined += 1;
+                if s > best {
+                    (best, best_i) = (s, Some(i));
+                }
+            }
+        } else {
+            let mut kids: Vec<(f32, u32)> =
+                (node.first_child..node.first_child + node.child_count).map(|c| (bound(&nodes[c as usize]), c)).collect();
+            // Ascending bound: the best child ends on top of the stack.
+            kids.sort_by(|a, b| a.0.total_cmp(&b.0));
+            stack.extend(kids.into_iter().filter(|k| k.0 > best));
+        }
+    }
+    best_i
+}
+
+/// [`query`] over cache points stored in leaf order.
+pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &QueryParams, x: Vec3, n: Vec3) -> Option<u32> {
+    if nodes.is_empty() || pts.is_empty() {
+        return None;
+    }
+    let bound = |node: &OctNode| -aabb_distance(node, x) / q.r_max + q.normal_weight.abs() + PREFERRED;
+    let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
+    let mut examined = 0u32;
+    // A fixed stack (no allocation per pixel): depth ≤ MAX_DEPTH levels × ≤ 8 children.
+    let mut stack = [(0f32, 0u32); 8 * (MAX_DEPTH as usize + 2)];
+    stack[0] = (bound(&nodes[0]), 0);
+    let mut top = 1usize;
+    while top > 0 {
+        top -= 1;
+        let (b, at) = stack[top];
+        if b <= best {
+            continue;
+        }
+        if q.max_candidates > 0 && examined >= q.max_candidates && best_i.is_some() {
+            break;
+        }
+        let node = &nodes[at as usize];
+        if node.child_count == 0 {
+            for i in node.first_point..node.first_point + node.point_count {
+                let p = &pts[i as usize];
+                let s = score(q, x, n, Vec3::from(p.position), Vec3::from(p.shading_normal));
+                examined += 1;
+                if s > best {
+                    (best, best_i) = (s, Some(i));
+                }
+            }
+        } else {
+            let start = top;
+            for c in node.first_child..node.first_child + node.child_count {
+                let bc = bound(&nodes[c as usize]);
+                if bc > best && top < stack.len() {
+                    stack[top] = (bc, c);
+                    top += 1;
+                }
+            }
+            stack[start..top].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
+        }
+    }
+    best_i
+}

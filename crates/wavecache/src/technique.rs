@@ -1,0 +1,352 @@
+//! `wavecache`: the runtime (paper Sec. 5, Eqs. 15–21; Sec. 6 "Runtime").
+//!
+//! `prepare` runs (or loads from the disk cache) the precomputation — the scene must be static.
+//! Per pixel of the GBuffer (the paper's V-buffer):
+//! - direct light of punctual lights by shadow rays with the full BRDF (Eq. 15/16);
+//! - diffuse meshes: the best cache point's irradiance × (base A_d(θ_o) + A_s(θ_o))/π (Eq. 19;
+//!   A_d = 1, A_s = 0 for a Lambertian material, the directional albedos of the glTF material
+//!   otherwise, so the cache shades the same BRDF as `pt`);
+//! - glossy meshes: Σ bilinear weights × (BRDF tree of the grid node ⊗ the point's radiance tree)
+//!   (Eq. 20; four products blended, equal to the product of the blended tree by linearity, the
+//!   depth capped at `layers`); ω_o in the frame of the pixel's shading normal (paper), the map in
+//!   the cache point's frame (both `Frame::from_z`, so nearby normals give nearby tangents);
+//! - roughness < 0.1: a perfect mirror chain with Schlick F (h = n) up to `mirror_depth` (Eq. 18);
+//!   a chain that reaches a surface of roughness ≥ 0.1 shades it with the cache and its punctual
+//!   lights (spec §6.2's consistent choice), one that escapes sees the environment;
+//! - the clear-coat ray (Eq. 17, 21): the scene model has no clear-coat parameter, so γ = 0
+//!   everywhere and Eq. 21 reduces to Eq. 20 ([`clear_coat_fresnel`] is there and tested).
+//!
+//! The pixel's own emission and misses (environment) are added by `shade_pixels`, as for `pt`.
+//! Timings: `prepare` reports the precomputation stages ("brdf tables", "lighting cache") or
+//! "cache load"; `render` reports "shade". `memory_bytes` = the cache's storage.
+
+use crate::bake::CachePoint;
+use crate::brdf;
+use crate::cache::{ALBEDO_BINS, WaveCache, cache_key};
+use crate::haar;
+use crate::half::f16_to_f32_finite as f16_to_f32;
+use crate::halfcube::map_frame;
+use crate::points::{self, QueryParams};
+use crate::{Class, WavecacheParams, WoFrame};
+use glimpse_core::{Image, Ray, Rng, Vec3};
+use glimpse_render::bsdf::{self, Bsdf};
+use glimpse_render::direct::{self, punctual};
+use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
+use glimpse_scene::Scene;
+use glimpse_trace::{GBuffer, SurfacePoint};
+use std::f32::consts::PI;
+
+pub struct Wavecache {
+    pub params: WavecacheParams,
+    pub settings: Settings,
+    pub cache: Option<WaveCache>,
+    /// Where the last `prepare` got its cache: "built", "disk" or "memory".
+    pub source: &'static str,
+}
+
+/// Filament's clear-coat Fresnel (Eq. 12): [0.04 + 0.96 (1 − ω_o·h)^5] γ.
+pub fn clear_coat_fresnel(cos_oh: f32, gamma: f32) -> f32 {
+    (0.04 + 0.96 * (1.0 - cos_oh).clamp(0.0, 1.0).powi(5)) * gamma
+}
+
+impl Wavecache {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "wavecache",
+            family: "global illumination",
+            reference: Some("pt"),
+            description: "Haar-wavelet radiance caching (Xing et al. 2024): half-cube maps, GGX BRDF trees ⊗ cached radiance, irradiance points, octrees; static scenes; precompute cached on disk (cache=false to skip)",
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "wavecache", glimpse_render::Need::AnyLight)?;
+                if scene.is_animated() {
+                    return Err(RenderError::Unsupported {
+                        technique: "wavecache".into(),
+                        message: format!("the scene '{}' is animated; the radiance cache needs static geometry and lighting", scene.name),
+                    });
+                }
+                Ok(Box::new(Wavecache::new(settings, params)?))
+            },
+        }
+    }
+
+    pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        Ok(Self::with_params(settings, WavecacheParams::read(params)?))
+    }
+
+    pub fn with_params(settings: &Settings, params: WavecacheParams) -> Self {
+        Self { params, settings: *settings, cache: None, source: "none" }
+    }
+
+    fn ensure_cache(&mut self, ctx: &FrameContext, stats: &mut Stats) {
+        let key = stats.time("cache key", || cache_key(&ctx.frame, &self.params, self.settings.seed));
+        if self.cache.as_ref().is_some_and(|c| c.key == key) {
+            self.source = "memory";
+            return;
+        }
+        let path = if self.params.disk_cache { WaveCache::path_for(key) } else { None };
+        if let Some(path) = &path {
+            let sw = glimpse_render::Stopwatch::start();
+            if let Ok(c) = WaveCache::load(path, key) {
+                stats.stage("cache load", sw.ms());
+                self.cache = Some(c);
+                self.source = "disk";
+                return;
+            }
+        }
+        let units = WaveCache::work_units(&ctx.frame, &self.params);
+        let bar = if self.params.progress {
+            let b = indicatif::ProgressBar::new(units);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("wavecache precompute {bar:40} {pos}/{len} [{elapsed_precise} < {eta_precise}]")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        } else {
+            indicatif::ProgressBar::hidden()
+        };
+        let tick = |n: u64| bar.inc(n);
+        let c = WaveCache::build(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed, key, &tick);
+        bar.finish_and_clear();
+        stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
+        stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
+        stats.rays = c.build_info.get(2).copied().unwrap_or(0.0) as u64;
+        if let Some(path) = &path {
+            // A failed write only costs the next run a recomputation.
+            if let Err(e) = c.save(path) {
+                eprintln!("wavecache: {e}");
+            }
+        }
+        self.cache = Some(c);
+        self.source = "built";
+    }
+}
+
+/// What the runtime needs.
+pub struct Runtime<'a> {
+    pub cache: &'a WaveCache,
+    pub params: &'a WavecacheParams,
+    pub frame: &'a glimpse_scene::SceneFrame<'a>,
+    pub vis: &'a glimpse_trace::ExactTracer,
+    pub classes: Vec<Class>,
+}
+
+/// A surface to shade.
+#[derive(Clone, Copy, Debug)]
+pub struct ShadePoint {
+    pub position: Vec3,
+    pub normal: Vec3,
+    pub shading_normal: Vec3,
+    pub base: Vec3,
+    pub material: u32,
+    pub instance: u32,
+}
+
+impl<'a> Runtime<'a> {
+    pub fn new(
+        cache: &'a WaveCache,
+        params: &'a WavecacheParams,
+        frame: &'a glimpse_scene::SceneFrame<'a>,
+        vis: &'a glimpse_trace::ExactTracer,
+    ) -> Self {
+        let classes = frame.scene.materials.iter().map(|m| params.classify(m)).collect();
+        Self { cache, params, frame, vis, classes }
+    }
+
+    /// The cache point chosen for (x, n) on instance `inst`.
+    pub fn lookup(&self, inst: u32, x: Vec3, n: Vec3) -> Option<&'a CachePoint> {
+        let mc = self.cache.meshes.get(inst as usize)?;
+        if mc.point_count == 0 {
+            return None;
+        }
+        let nodes = &self.cache.octree[mc.first_node as usize..(mc.first_node + mc.node_count) as usize];
+        let pts = &self.cache.points[mc.first_point as usize..(mc.first_point + mc.point_count) as usize];
+        let q = QueryParams {
+            r_max: mc.r_max.max(1e-12),
+            normal_weight: self.params.normal_weight,
+            normal_cutoff: self.params.normal_cutoff_deg.to_radians().cos(),
+            max_candidates: self.params.query_m,
+        };
+        let i = points::query_points(nodes, pts, &q, x, n)?;
+        pts.get(i as usize)
+    }
+
+    /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
+    pub fn glossy(&self, material: u32, wo_local: Vec3, tree: u32) -> Vec3 {
+        let c = self.cache;
+        let (Some(t), Some(rt)) = (c.brdf_tables.get(material as usize), c.radiance_trees.get(tree as usize)) else {
+            return Vec3::ZERO;
+        };
+        if t.res == 0 {
+            return Vec3::ZERO;
+        }
+        let wo = Vec3::new(wo_local.x, wo_local.y, wo_local.z.max(1e-4)).normalize();
+        let corners = brdf::bilinear(wo, t.n_u1, t.n_u2);
+        let trees = corners.map(|(i, j, _)| c.brdf_trees[(t.first_tree + i * t.n_u2 + j) as usize]);
+        // Depth = the lowest of the four (Sec. 6), capped by `layers`.
+        let mut cap = trees.iter().map(|t| t.depth).min().unwrap_or(0);
+        if self.params.layers > 0 {
+            cap = cap.min(self.params.layers);
+        }
+        let mut sum = Vec3::ZERO;
+        for (k, (_, _, w)) in corners.iter().enumerate() {
+            if *w > 0.0 {
+                sum += haar::product(&c.brdf_nodes, trees[k], &c.radiance_nodes, *rt, cap) * *w;
+            }
+        }
+        sum.max(Vec3::ZERO)
+    }
+
+    /// Cached part (Eq. 19/20) at `s` seen from `wo`.
+    pub fn cached(&self, s: &ShadePoint, wo: Vec3) -> Vec3 {
+        let Some(class) = self.classes.get(s.material as usize) else {
+            return Vec3::ZERO;
+        };
+        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        match class {
+            Class::Mirror => Vec3::ZERO,
+            Class::Diffuse => {
+                let Some(p) = self.lookup(s.instance, s.position, ns) else {
+                    return Vec3::ZERO;
+                };
+                let e = self
+                    .cache
+                    .irradiance
+                    .get(p.payload as usize)
+                    .map_or(Vec3::ZERO, |v| Vec3::new(f16_to_f32(v[0]), f16_to_f32(v[1]), f16_to_f32(v[2])));
+                let base = s.material as usize * ALBEDO_BINS as usize;
+                let table = self.cache.albedo.get(base..base + ALBEDO_BINS as usize).unwrap_or(&[]);
+                let [ad, as_] = brdf::albedo_lookup(table, ns.dot(wo));
+                e * (s.base * ad + Vec3::splat(as_)) / PI
+            }
+            Class::Glossy => {
+                let Some(p) = self.lookup(s.instance, s.position, ns) else {
+                    return Vec3::ZERO;
+                };
+                let np = Vec3::from(p.shading_normal);
+                let wo_local = match self.params.wo_frame {
+                    WoFrame::Pixel => map_frame(ns).to_local(wo),
+                    WoFrame::Point => map_frame(np).to_local(wo),
+                    WoFrame::Reflect => {
+                        let r = bsdf::reflect(wo, ns);
+                        map_frame(np).to_local(bsdf::reflect(r, np))
+                    }
+                };
+                self.glossy(s.material, wo_local, p.payload)
+            }
+        }
+    }
+
+    /// Eq. 15/16: punctual lights with shadow rays and the full BRDF. Returns (radiance, rays).
+    pub fn punctual(&self, s: &ShadePoint, wo: Vec3) -> (Vec3, u64) {
+        let m = &self.frame.scene.materials[s.material as usize];
+        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+            return (Vec3::ZERO, 0);
+        };
+        let (mut l, mut rays) = (Vec3::ZERO, 0);
+        for light in &self.frame.lights {
+            let ps = punctual(light, s.position, s.normal);
+            let cos = b.cos(ps.wi);
+            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                continue;
+            }
+            let f = b.eval(ps.wi);
+            if f.max_element() <= 0.0 {
+                continue;
+            }
+            rays += 1;
+            if !self.vis.occluded(&ps.shadow, ps.t_max) {
+                l += f * ps.irradiance * cos;
+            }
+        }
+        (l, rays)
+    }
+
+    /// Everything reflected at `s` towards `wo` (no emission of `s`); (radiance, rays).
+    pub fn shade(&self, s: &ShadePoint, wo: Vec3, depth: u32) -> (Vec3, u64) {
+        let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
+        if class == Class::Mirror {
+            return self.mirror(s, wo, depth);
+        }
+        let (d, rays) = self.punctual(s, wo);
+        (d + self.cached(s, wo), rays)
+    }
+
+    /// Eq. 18: the perfect-mirror chain.
+    fn mirror(&self, s: &ShadePoint, wo: Vec3, depth: u32) -> (Vec3, u64) {
+        let m = &self.frame.scene.materials[s.material as usize];
+        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let cos = ns.dot(wo);
+        if cos <= 0.0 {
+            return (Vec3::ZERO, 0);
+        }
+        let f0 = Vec3::splat(0.04).lerp(s.base, m.metallic.clamp(0.0, 1.0));
+        let f = bsdf::schlick(f0, cos);
+        let dir = bsdf::reflect(wo, ns).normalize();
+        if dir.dot(s.normal) <= 0.0 {
+            return (Vec3::ZERO, 0);
+        }
+        let ray = Ray::spawn(s.position, s.normal, dir);
+        let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
+            return (f * direct::background(self.frame, dir), 1);
+        };
+        let sp = SurfacePoint::from_hit(self.frame, &ray, &hit);
+        let le = sp.emission(self.frame);
+        if depth + 1 >= self.params.mirror_depth {
+            return (f * le, 1);
+        }
+        let next = ShadePoint {
+            position: sp.position,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            base: sp.base_color(self.frame),
+            material: sp.material,
+            instance: sp.instance,
+        };
+        let (l, rays) = self.shade(&next, -dir, depth + 1);
+        (f * (le + l), rays + 1)
+    }
+}
+
+impl Technique for Wavecache {
+    fn id(&self) -> &'static str {
+        "wavecache"
+    }
+
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        let mut stats = Stats::default();
+        self.ensure_cache(ctx, &mut stats);
+        stats.memory_bytes = self.cache.as_ref().map_or(0, |c| c.memory_bytes());
+        Ok(stats)
+    }
+
+    fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
+        // `prepare` checked the cache against this frame's key (hashing the scene again here would
+        // cost more than a cheap frame).
+        let cache = self
+            .cache
+            .as_ref()
+            .ok_or_else(|| RenderError::Unsupported { technique: "wavecache".into(), message: "render called before prepare".into() })?;
+        if cache.meshes.len() != ctx.frame.scene.instances.len() || cache.brdf_tables.len() != ctx.frame.scene.materials.len() {
+            return Err(RenderError::Unsupported {
+                technique: "wavecache".into(),
+                message: "the cache was prepared for another scene".into(),
+            });
+        }
+        let mut stats = Stats { memory_bytes: cache.memory_bytes(), ..Default::default() };
+        let rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
+        stats.rays = stats.time("shade", || {
+            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng: &mut Rng| {
+                let s = ShadePoint {
+                    position: gbuffer.position[i],
+                    normal: gbuffer.normal[i],
+                    shading_normal: gbuffer.shading_normal[i],
+                    base: gbuffer.albedo[i],
+                    material: gbuffer.material[i],
+                    instance: gbuffer.instance[i],
+                };
+                rt.shade(&s, -gbuffer.view_dir[i], 0)
+            })
+        })?;
+        Ok(stats)
+    }
+}
