@@ -21,8 +21,8 @@ use crate::bsdf::{BrdfModel, Bsdf};
 use crate::direct::{self, EmitterIndex};
 use crate::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_core::{Image, Ray, Rng, Vec3, is_finite3};
-use glimpse_scene::Scene;
-use glimpse_trace::{GBuffer, SurfacePoint};
+use glimpse_scene::{Scene, SceneFrame};
+use glimpse_trace::{ExactTracer, GBuffer, SurfacePoint};
 use std::sync::atomic::{AtomicU64, Ordering};
 
 /// With at most this many punctual lights, every one is sampled at every vertex.
@@ -38,13 +38,161 @@ pub struct PathTracer {
     nonfinite: u64,
 }
 
-/// The surface a path is at.
-struct Vertex {
-    position: Vec3,
-    normal: Vec3,
-    shading_normal: Vec3,
-    base: Vec3,
-    material: u32,
+/// The surface a path is at: its position, normals and material (base colour already textured).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathVertex {
+    pub position: Vec3,
+    pub normal: Vec3,
+    pub shading_normal: Vec3,
+    pub base: Vec3,
+    pub metallic: f32,
+    pub roughness: f32,
+}
+
+impl PathVertex {
+    pub fn of(frame: &SceneFrame, sp: &SurfacePoint) -> Self {
+        let m = &frame.scene.materials[sp.material as usize];
+        Self {
+            position: sp.position,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            base: sp.base_color(frame),
+            metallic: m.metallic,
+            roughness: m.roughness,
+        }
+    }
+}
+
+/// How a path's first vertex is treated (the wavelet cache starts paths mid-way and traces the
+/// punctual lights of its first vertex itself).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PathStart {
+    /// Depth of the first vertex (1 at a camera hit).
+    pub depth: u32,
+    /// BRDF model of the first vertex, if not the integrator's.
+    pub model: Option<BrdfModel>,
+    /// Sample the punctual lights at the first vertex.
+    pub punctual: bool,
+}
+
+impl PathStart {
+    /// A camera path: depth 1, the integrator's BRDF, every light.
+    pub const CAMERA: PathStart = PathStart { depth: 1, model: None, punctual: true };
+}
+
+/// `pt`'s estimator from any vertex: what `pt` runs per pixel sample, and what the wavelet
+/// cache's precomputation runs from its cache points, so both estimate the same integral.
+pub struct PathIntegrator<'a> {
+    pub frame: &'a SceneFrame<'a>,
+    pub tracer: &'a ExactTracer,
+    pub emitters: &'a EmitterIndex,
+    pub max_depth: u32,
+    pub model: BrdfModel,
+}
+
+impl PathIntegrator<'_> {
+    /// Radiance leaving `v` towards `wo` (without `v`'s own emission) and the rays traced.
+    pub fn path(&self, mut v: PathVertex, mut wo: Vec3, start: PathStart, rng: &mut Rng) -> (Vec3, u64) {
+        let frame = self.frame;
+        let env = frame.scene.environment.as_ref();
+        let lights = &frame.lights;
+        let (mut beta, mut l, mut rays) = (Vec3::ONE, Vec3::ZERO, 0u64);
+        for depth in start.depth..=self.max_depth {
+            let model = if depth == start.depth { start.model.unwrap_or(self.model) } else { self.model };
+            let Some(bsdf) = Bsdf::new(model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
+                break;
+            };
+            // Next-event estimation: area lights (MIS).
+            let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
+            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
+                let cos = bsdf.cos(ls.wi);
+                let f = bsdf.eval(ls.wi);
+                if cos > 0.0 && f.max_element() > 0.0 {
+                    rays += 1;
+                    if !self.tracer.occluded(&ls.shadow, ls.t_max) {
+                        let w = direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi));
+                        l += beta * f * ls.radiance * (cos * w / ls.pdf);
+                    }
+                }
+            }
+            // The environment (MIS).
+            let u_env = rng.next_2d();
+            if let Some(env) = env {
+                let (d, le, pdf) = env.sample(u_env);
+                let cos = bsdf.cos(d);
+                if pdf > 0.0 && cos > 0.0 {
+                    let f = bsdf.eval(d);
+                    if f.max_element() > 0.0 {
+                        rays += 1;
+                        if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
+                            let w = direct::power_heuristic(pdf, bsdf.pdf(d));
+                            l += beta * f * le * (cos * w / pdf);
+                        }
+                    }
+                }
+            }
+            // Punctual lights (NEE only).
+            let u_light = rng.next_f32();
+            if depth != start.depth || start.punctual {
+                let (chosen, scale) = if lights.len() <= ALL_PUNCTUAL {
+                    (&lights[..], 1.0)
+                } else {
+                    let k = ((u_light * lights.len() as f32) as usize).min(lights.len() - 1);
+                    (&lights[k..k + 1], lights.len() as f32)
+                };
+                for light in chosen {
+                    let ps = direct::punctual(light, v.position, v.normal);
+                    let cos = bsdf.cos(ps.wi);
+                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                        continue;
+                    }
+                    let f = bsdf.eval(ps.wi);
+                    if f.max_element() <= 0.0 {
+                        continue;
+                    }
+                    rays += 1;
+                    if !self.tracer.occluded(&ps.shadow, ps.t_max) {
+                        l += beta * f * ps.irradiance * (cos * scale);
+                    }
+                }
+            }
+            // Continue the path by sampling the BRDF.
+            let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
+            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
+                break;
+            };
+            beta *= s.f * (s.cos / s.pdf);
+            let ray = Ray::spawn(v.position, v.normal, s.wi);
+            rays += 1;
+            let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
+                if let Some(env) = env {
+                    let w = direct::power_heuristic(s.pdf, env.pdf(s.wi));
+                    l += beta * env.radiance(s.wi) * w;
+                }
+                break;
+            };
+            let sp = SurfacePoint::from_hit(frame, &ray, &hit);
+            let le = sp.emission(frame);
+            if le.max_element() > 0.0 {
+                let cos_light = sp.normal.dot(-s.wi).abs();
+                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light);
+                l += beta * le * direct::power_heuristic(s.pdf, p_light);
+            }
+            if depth == self.max_depth {
+                break;
+            }
+            if depth >= RR_DEPTH {
+                let q = beta.max_element().min(1.0);
+                if rng.next_f32() >= q {
+                    break;
+                }
+                beta /= q;
+            }
+            wo = -s.wi;
+            v = PathVertex::of(frame, &sp);
+        }
+        (l, rays)
+    }
 }
 
 impl PathTracer {
@@ -79,120 +227,23 @@ impl PathTracer {
     /// One path's radiance through pixel `i` (excluding the primary hit's emission) and the
     /// rays it traced.
     fn path(&self, ctx: &FrameContext, g: &GBuffer, i: usize, rng: &mut Rng) -> (Vec3, u64) {
-        let frame = &ctx.frame;
-        let scene = frame.scene;
-        let env = scene.environment.as_ref();
-        let lights = &frame.lights;
-        let mut v = Vertex {
+        let m = &ctx.frame.scene.materials[g.material[i] as usize];
+        let v = PathVertex {
             position: g.position[i],
             normal: g.normal[i],
             shading_normal: g.shading_normal[i],
             base: g.albedo[i],
-            material: g.material[i],
+            metallic: m.metallic,
+            roughness: m.roughness,
         };
-        let mut wo = -g.view_dir[i];
-        let mut beta = Vec3::ONE;
-        let mut l = Vec3::ZERO;
-        let mut rays = 0u64;
-        for depth in 1..=self.max_depth {
-            let mat = &scene.materials[v.material as usize];
-            let Some(bsdf) = Bsdf::new(self.brdf, v.base, mat.metallic, mat.roughness, v.shading_normal, v.normal, wo) else {
-                break;
-            };
-            // Next-event estimation: area lights (MIS).
-            let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
-            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
-                let cos = bsdf.cos(ls.wi);
-                let f = bsdf.eval(ls.wi);
-                if cos > 0.0 && f.max_element() > 0.0 {
-                    rays += 1;
-                    if !ctx.tracer.occluded(&ls.shadow, ls.t_max) {
-                        let w = direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi));
-                        l += beta * f * ls.radiance * (cos * w / ls.pdf);
-                    }
-                }
-            }
-            // The environment (MIS).
-            let u_env = rng.next_2d();
-            if let Some(env) = env {
-                let (d, le, pdf) = env.sample(u_env);
-                let cos = bsdf.cos(d);
-                if pdf > 0.0 && cos > 0.0 {
-                    let f = bsdf.eval(d);
-                    if f.max_element() > 0.0 {
-                        rays += 1;
-                        if !ctx.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
-                            let w = direct::power_heuristic(pdf, bsdf.pdf(d));
-                            l += beta * f * le * (cos * w / pdf);
-                        }
-                    }
-                }
-            }
-            // Punctual lights (NEE only).
-            let u_light = rng.next_f32();
-            let (chosen, scale) = if lights.len() <= ALL_PUNCTUAL {
-                (&lights[..], 1.0)
-            } else {
-                let k = ((u_light * lights.len() as f32) as usize).min(lights.len() - 1);
-                (&lights[k..k + 1], lights.len() as f32)
-            };
-            for light in chosen {
-                let ps = direct::punctual(light, v.position, v.normal);
-                let cos = bsdf.cos(ps.wi);
-                if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                    continue;
-                }
-                let f = bsdf.eval(ps.wi);
-                if f.max_element() <= 0.0 {
-                    continue;
-                }
-                rays += 1;
-                if !ctx.tracer.occluded(&ps.shadow, ps.t_max) {
-                    l += beta * f * ps.irradiance * (cos * scale);
-                }
-            }
-            // Continue the path by sampling the BRDF.
-            let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
-            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
-                break;
-            };
-            beta *= s.f * (s.cos / s.pdf);
-            let ray = Ray::spawn(v.position, v.normal, s.wi);
-            rays += 1;
-            let Some(hit) = ctx.tracer.closest_hit(&ray, f32::INFINITY) else {
-                if let Some(env) = env {
-                    let w = direct::power_heuristic(s.pdf, env.pdf(s.wi));
-                    l += beta * env.radiance(s.wi) * w;
-                }
-                break;
-            };
-            let sp = SurfacePoint::from_hit(frame, &ray, &hit);
-            let le = sp.emission(frame);
-            if le.max_element() > 0.0 {
-                let cos_light = sp.normal.dot(-s.wi).abs();
-                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light);
-                l += beta * le * direct::power_heuristic(s.pdf, p_light);
-            }
-            if depth == self.max_depth {
-                break;
-            }
-            if depth >= RR_DEPTH {
-                let q = beta.max_element().min(1.0);
-                if rng.next_f32() >= q {
-                    break;
-                }
-                beta /= q;
-            }
-            wo = -s.wi;
-            v = Vertex {
-                position: sp.position,
-                normal: sp.normal,
-                shading_normal: sp.shading_normal,
-                base: sp.base_color(frame),
-                material: sp.material,
-            };
-        }
-        (l, rays)
+        let integrator = PathIntegrator {
+            frame: &ctx.frame,
+            tracer: &ctx.tracer,
+            emitters: &self.emitters,
+            max_depth: self.max_depth,
+            model: self.brdf,
+        };
+        integrator.path(v, -g.view_dir[i], PathStart::CAMERA, rng)
     }
 }
 

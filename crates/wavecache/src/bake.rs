@@ -26,9 +26,9 @@ use crate::points::{self, OctNode, SurfaceSample, WorldMesh};
 use crate::{Class, WavecacheParams};
 use bytemuck::{Pod, Zeroable};
 use glimpse_core::{Frame, Ray, Rng, Vec2, Vec3, is_finite3, luminance};
-use glimpse_render::bsdf::{BrdfModel, Bsdf};
-use glimpse_render::direct::{self, EmitterIndex};
-use glimpse_render::pt::{ALL_PUNCTUAL, RR_DEPTH};
+use glimpse_render::bsdf::BrdfModel;
+use glimpse_render::direct::EmitterIndex;
+use glimpse_render::pt::{PathIntegrator, PathStart, PathVertex};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::{ExactTracer, SurfacePoint};
 use rayon::prelude::*;
@@ -65,7 +65,8 @@ pub struct MeshCache {
     pub _pad: u32,
 }
 
-/// The path tracer that fills the cache: `pt`'s estimator, from a given vertex.
+/// The path tracer that fills the cache: `pt`'s own estimator ([`PathIntegrator`]), started at
+/// the cache point or at the first hit of a map texel's ray.
 pub struct Integrator<'a> {
     pub frame: &'a SceneFrame<'a>,
     pub tracer: &'a ExactTracer,
@@ -74,32 +75,13 @@ pub struct Integrator<'a> {
     pub model: BrdfModel,
 }
 
-/// A path vertex.
-#[derive(Clone, Copy)]
-struct Vertex {
-    position: Vec3,
-    normal: Vec3,
-    shading_normal: Vec3,
-    base: Vec3,
-    metallic: f32,
-    roughness: f32,
-}
-
 impl<'a> Integrator<'a> {
     pub fn new(frame: &'a SceneFrame<'a>, tracer: &'a ExactTracer, max_depth: u32, model: BrdfModel) -> Self {
         Self { frame, tracer, emitters: EmitterIndex::new(frame), max_depth, model }
     }
 
-    fn vertex_of(&self, sp: &SurfacePoint) -> Vertex {
-        let m = &self.frame.scene.materials[sp.material as usize];
-        Vertex {
-            position: sp.position,
-            normal: sp.normal,
-            shading_normal: sp.shading_normal,
-            base: sp.base_color(self.frame),
-            metallic: m.metallic,
-            roughness: m.roughness,
-        }
+    fn pt(&self) -> PathIntegrator<'_> {
+        PathIntegrator { frame: self.frame, tracer: self.tracer, emitters: &self.emitters, max_depth: self.max_depth, model: self.model }
     }
 
     /// Radiance arriving along `ray` (emission of the first hit, or the environment, included).
@@ -113,121 +95,20 @@ impl<'a> Integrator<'a> {
         if self.max_depth < 2 {
             return (le, 1);
         }
-        let (l, rays) = self.path(self.vertex_of(&sp), -ray.dir, 2, None, true, rng);
+        // The hit is the path's second vertex (the cache point is the first).
+        let start = PathStart { depth: 2, model: None, punctual: true };
+        let (l, rays) = self.pt().path(PathVertex::of(self.frame, &sp), -ray.dir, start, rng);
         (le + l, rays + 1)
     }
 
     /// Irradiance ∫ L cos dω at a point (geometric normal `ng`, shading `ns`) without the direct
-    /// light of punctual lights: π × the radiance a white Lambertian vertex reflects.
+    /// light of punctual lights (the runtime traces those): π × the radiance a white Lambertian
+    /// vertex reflects.
     pub fn irradiance(&self, p: Vec3, ng: Vec3, ns: Vec3, rng: &mut Rng) -> (Vec3, u64) {
-        let v = Vertex { position: p, normal: ng, shading_normal: ns, base: Vec3::ONE, metallic: 0.0, roughness: 1.0 };
-        let (l, rays) = self.path(v, ns, 1, Some(BrdfModel::Lambert), false, rng);
+        let v = PathVertex { position: p, normal: ng, shading_normal: ns, base: Vec3::ONE, metallic: 0.0, roughness: 1.0 };
+        let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: false };
+        let (l, rays) = self.pt().path(v, ns, start, rng);
         (l * PI, rays)
-    }
-
-    /// `pt`'s path loop from vertex `v` at depth `first` (`first_model` overrides the first
-    /// vertex's BRDF; `first_punctual` = false skips punctual lights there). Returns the radiance
-    /// leaving `v` towards `wo` (without `v`'s emission) and the rays traced.
-    fn path(
-        &self,
-        mut v: Vertex,
-        mut wo: Vec3,
-        first: u32,
-        first_model: Option<BrdfModel>,
-        first_punctual: bool,
-        rng: &mut Rng,
-    ) -> (Vec3, u64) {
-        let frame = self.frame;
-        let env = frame.scene.environment.as_ref();
-        let lights = &frame.lights;
-        let (mut beta, mut l, mut rays) = (Vec3::ONE, Vec3::ZERO, 0u64);
-        for depth in first..=self.max_depth {
-            let model = if depth == first { first_model.unwrap_or(self.model) } else { self.model };
-            let Some(bsdf) = Bsdf::new(model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
-                break;
-            };
-            let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
-            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
-                let cos = bsdf.cos(ls.wi);
-                let f = bsdf.eval(ls.wi);
-                if cos > 0.0 && f.max_element() > 0.0 {
-                    rays += 1;
-                    if !self.tracer.occluded(&ls.shadow, ls.t_max) {
-                        l += beta * f * ls.radiance * (cos * direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi)) / ls.pdf);
-                    }
-                }
-            }
-            let u_env = rng.next_2d();
-            if let Some(env) = env {
-                let (d, le, pdf) = env.sample(u_env);
-                let cos = bsdf.cos(d);
-                if pdf > 0.0 && cos > 0.0 {
-                    let f = bsdf.eval(d);
-                    if f.max_element() > 0.0 {
-                        rays += 1;
-                        if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
-                            l += beta * f * le * (cos * direct::power_heuristic(pdf, bsdf.pdf(d)) / pdf);
-                        }
-                    }
-                }
-            }
-            let u_light = rng.next_f32();
-            if depth != first || first_punctual {
-                let (chosen, scale) = if lights.len() <= ALL_PUNCTUAL {
-                    (&lights[..], 1.0)
-                } else {
-                    let k = ((u_light * lights.len() as f32) as usize).min(lights.len() - 1);
-                    (&lights[k..k + 1], lights.len() as f32)
-                };
-                for light in chosen {
-                    let ps = direct::punctual(light, v.position, v.normal);
-                    let cos = bsdf.cos(ps.wi);
-                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                        continue;
-                    }
-                    let f = bsdf.eval(ps.wi);
-                    if f.max_element() <= 0.0 {
-                        continue;
-                    }
-                    rays += 1;
-                    if !self.tracer.occluded(&ps.shadow, ps.t_max) {
-                        l += beta * f * ps.irradiance * (cos * scale);
-                    }
-                }
-            }
-            let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
-            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
-                break;
-            };
-            beta *= s.f * (s.cos / s.pdf);
-            let ray = Ray::spawn(v.position, v.normal, s.wi);
-            rays += 1;
-            let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
-                if let Some(env) = env {
-                    l += beta * env.radiance(s.wi) * direct::power_heuristic(s.pdf, env.pdf(s.wi));
-                }
-                break;
-            };
-            let sp = SurfacePoint::from_hit(frame, &ray, &hit);
-            let le = sp.emission(frame);
-            if le.max_element() > 0.0 {
-                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, sp.normal.dot(-s.wi).abs());
-                l += beta * le * direct::power_heuristic(s.pdf, p_light);
-            }
-            if depth == self.max_depth {
-                break;
-            }
-            if depth >= RR_DEPTH {
-                let q = beta.max_element().min(1.0);
-                if rng.next_f32() >= q {
-                    break;
-                }
-                beta /= q;
-            }
-            wo = -s.wi;
-            v = self.vertex_of(&sp);
-        }
-        (l, rays)
     }
 
     /// The incident-radiance half-cube map (mean radiance per texel, row-major N×N) at a point
