@@ -5,6 +5,7 @@
 
 pub mod aabb;
 pub mod distribution;
+pub mod fast_math;
 pub mod frame;
 pub mod image;
 pub mod ray;

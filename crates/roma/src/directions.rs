@@ -11,6 +11,7 @@
 //! - Selection inverts the lift and the concentric map, so the chosen candidate is always the
 //!   one of the ray's own stratum: "close enough", not always the nearest (paper §4.2).
 
+use glimpse_core::fast_math::atan_unit;
 use glimpse_core::{Frame, Rng, Vec2, Vec3};
 use std::f32::consts::FRAC_PI_4;
 
@@ -144,14 +145,6 @@ pub fn hemisphere_to_disk_square(d: Vec3) -> Vec2 {
     if swap { Vec2::new(other, main) } else { Vec2::new(main, other) }
 }
 
-/// arctan on [−1, 1] by an odd minimax polynomial (max error 1.7e-6 rad), several times faster
-/// than `f32::atan`; it moves stratum boundaries by less than 2e-6 of a stratum.
-#[inline]
-pub fn atan_unit(x: f32) -> f32 {
-    let x2 = x * x;
-    x * (0.999_977_26 + x2 * (-0.332_623_47 + x2 * (0.193_543_46 + x2 * (-0.116_432_87 + x2 * (0.052_653_32 + x2 * -0.011_721_2)))))
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,8 +160,5 @@ mod tests {
         }
         println!("square → hemisphere → square: worst error {worst:e}");
         assert!(worst < 1e-3);
-        let atan_error = (-1000..=1000).map(|i| (atan_unit(i as f32 / 1000.0) - (i as f32 / 1000.0).atan()).abs()).fold(0.0, f32::max);
-        println!("atan_unit: worst error {atan_error:e} rad");
-        assert!(atan_error < 3e-6);
     }
 }
