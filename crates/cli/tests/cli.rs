@@ -162,6 +162,36 @@ fn eval_writes_results_json_and_report() {
     assert!(Path::new(&dir.join("ao-exact.png")).exists() && Path::new(&dir.join("ao-exact-error.png")).exists());
 }
 
+/// Measures a technique reports of itself (here ε_v/ε_s of shadow-map decisions against exact
+/// rays) reach results.json's metrics and the report's "other" column.
+#[test]
+fn eval_reports_shadow_epsilon() {
+    let dir = tmp("eval-eps");
+    let o = glimpse(&[
+        "eval",
+        "many-lights",
+        "-t",
+        "lights-shadowmap",
+        "--size",
+        "24x16",
+        "--set",
+        "lights=16",
+        "--set",
+        "resolution=32",
+        "--no-sweep",
+        "--no-cache",
+        "-o",
+        dir.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+    let m = &json["runs"][0]["metrics"];
+    println!("{m}");
+    let (eps_v, eps_s) = (m["eps_v_pct"].as_f64().unwrap(), m["eps_s_pct"].as_f64().unwrap());
+    assert!((0.0..=100.0).contains(&eps_v) && eps_s <= eps_v);
+    assert!(std::fs::read_to_string(dir.join("report.html")).unwrap().contains("eps_v_pct"));
+}
+
 #[test]
 fn bench_rays_reports_the_exact_tracer() {
     let o = glimpse(&["bench", "rays", "cornell", "--kind", "ao", "--rays", "20000", "--size", "32x32", "--only", "none", "--json"]);
