@@ -11,6 +11,9 @@
 //! - `max_depth` (default 8) counts scattering vertices: 1 = direct light only, 2 = direct plus
 //!   one diffuse/glossy bounce (what `gi-exact` computes), light found by the BRDF sample of the
 //!   last vertex included;
+//! - a clear coat (`Material::clearcoat` = γ > 0, [`ClearCoat`]): a smooth dielectric layer with
+//!   F_c = γ·Schlick(0.04, n·ωo) over the BRDF, which is weighted by 1 − F_c; its mirror lobe is a
+//!   delta, sampled with probability F_c and given full weight when it finds a light;
 //! - Russian roulette from the fourth vertex on, continuing with probability
 //!   min(1, max(throughput)) and dividing by it.
 //!
@@ -47,6 +50,8 @@ pub struct PathVertex {
     pub base: Vec3,
     pub metallic: f32,
     pub roughness: f32,
+    /// Clear-coat strength γ (0: none).
+    pub clearcoat: f32,
 }
 
 impl PathVertex {
@@ -59,7 +64,44 @@ impl PathVertex {
             base: sp.base_color(frame),
             metallic: m.metallic,
             roughness: m.roughness,
+            clearcoat: m.clearcoat,
         }
+    }
+}
+
+/// A vertex's clear coat (Filament's, as the wavelet-cache paper uses it, Eqs. 11–12): a smooth
+/// dielectric layer over the base with F_c = γ · Schlick(0.04, n·ωo) (h = n for a smooth coat).
+/// The base is seen through it with weight 1 − F_c; the coat reflects F_c into the mirror
+/// direction, a delta lobe that only BRDF sampling finds (chosen with probability F_c).
+/// Uncoated (γ = 0, or the Lambert model): F_c = 0, and every factor below is exactly 1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClearCoat {
+    pub fresnel: f32,
+    /// 1 − F_c.
+    pub through: f32,
+    /// The coat's normal (the shading normal when ωo is above it, as the BRDF's).
+    pub normal: Vec3,
+}
+
+impl ClearCoat {
+    pub fn at(v: &PathVertex, model: BrdfModel, wo: Vec3) -> ClearCoat {
+        let normal = if v.shading_normal.dot(wo) > 0.0 { v.shading_normal } else { v.normal };
+        let fresnel = if model == BrdfModel::Pbr && v.clearcoat > 0.0 {
+            v.clearcoat * crate::bsdf::schlick(Vec3::splat(0.04), normal.dot(wo).clamp(0.0, 1.0)).x
+        } else {
+            0.0
+        };
+        ClearCoat { fresnel, through: 1.0 - fresnel, normal }
+    }
+
+    /// Probability of sampling the base BRDF rather than the coat.
+    pub fn base_probability(&self) -> f32 {
+        1.0 - self.fresnel
+    }
+
+    /// The coat's mirror direction of `wo`.
+    pub fn mirror(&self, wo: Vec3) -> Vec3 {
+        (2.0 * self.normal.dot(wo) * self.normal - wo).normalize()
     }
 }
 
@@ -102,15 +144,16 @@ impl PathIntegrator<'_> {
             let Some(bsdf) = Bsdf::new(model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
                 break;
             };
+            let coat = ClearCoat::at(&v, model, wo);
             // Next-event estimation: area lights (MIS).
             let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
             if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
                 let cos = bsdf.cos(ls.wi);
-                let f = bsdf.eval(ls.wi);
+                let f = bsdf.eval(ls.wi) * coat.through;
                 if cos > 0.0 && f.max_element() > 0.0 {
                     rays += 1;
                     if !self.tracer.occluded(&ls.shadow, ls.t_max) {
-                        let w = direct::power_heuristic(ls.pdf, bsdf.pdf(ls.wi));
+                        let w = direct::power_heuristic(ls.pdf, coat.base_probability() * bsdf.pdf(ls.wi));
                         l += beta * f * ls.radiance * (cos * w / ls.pdf);
                     }
                 }
@@ -121,11 +164,11 @@ impl PathIntegrator<'_> {
                 let (d, le, pdf) = env.sample(u_env);
                 let cos = bsdf.cos(d);
                 if pdf > 0.0 && cos > 0.0 {
-                    let f = bsdf.eval(d);
+                    let f = bsdf.eval(d) * coat.through;
                     if f.max_element() > 0.0 {
                         rays += 1;
                         if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
-                            let w = direct::power_heuristic(pdf, bsdf.pdf(d));
+                            let w = direct::power_heuristic(pdf, coat.base_probability() * bsdf.pdf(d));
                             l += beta * f * le * (cos * w / pdf);
                         }
                     }
@@ -146,7 +189,7 @@ impl PathIntegrator<'_> {
                     if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                         continue;
                     }
-                    let f = bsdf.eval(ps.wi);
+                    let f = bsdf.eval(ps.wi) * coat.through;
                     if f.max_element() <= 0.0 {
                         continue;
                     }
@@ -156,27 +199,41 @@ impl PathIntegrator<'_> {
                     }
                 }
             }
-            // Continue the path by sampling the BRDF.
+            // Continue the path: the coat's mirror lobe with probability F_c (only drawn on a
+            // coated vertex, so uncoated scenes keep their random streams), else the BRDF.
+            // `mis_pdf` is None for the delta lobe: light it finds gets full weight.
+            let on_coat = coat.fresnel > 0.0 && rng.next_f32() < coat.fresnel;
             let (u_lobe, u_dir) = (rng.next_f32(), rng.next_2d());
-            let Some(s) = bsdf.sample(u_lobe, u_dir) else {
-                break;
+            let (wi, mis_pdf) = if on_coat {
+                // F_c / P(coat) = 1: the throughput is unchanged.
+                let wi = coat.mirror(wo);
+                if v.normal.dot(wi) <= 0.0 {
+                    break;
+                }
+                (wi, None)
+            } else {
+                let Some(s) = bsdf.sample(u_lobe, u_dir) else {
+                    break;
+                };
+                beta *= s.f * (s.cos / s.pdf) * (coat.through / coat.base_probability());
+                (s.wi, Some(coat.base_probability() * s.pdf))
             };
-            beta *= s.f * (s.cos / s.pdf);
-            let ray = Ray::spawn(v.position, v.normal, s.wi);
+            let ray = Ray::spawn(v.position, v.normal, wi);
             rays += 1;
             let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
                 if let Some(env) = env {
-                    let w = direct::power_heuristic(s.pdf, env.pdf(s.wi));
-                    l += beta * env.radiance(s.wi) * w;
+                    let w = mis_pdf.map_or(1.0, |p| direct::power_heuristic(p, env.pdf(wi)));
+                    l += beta * env.radiance(wi) * w;
                 }
                 break;
             };
             let sp = SurfacePoint::from_hit(frame, &ray, &hit);
             let le = sp.emission(frame);
             if le.max_element() > 0.0 {
-                let cos_light = sp.normal.dot(-s.wi).abs();
-                let p_light = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light);
-                l += beta * le * direct::power_heuristic(s.pdf, p_light);
+                let cos_light = sp.normal.dot(-wi).abs();
+                let w = mis_pdf
+                    .map_or(1.0, |p| direct::power_heuristic(p, self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light)));
+                l += beta * le * w;
             }
             if depth == self.max_depth {
                 break;
@@ -188,7 +245,7 @@ impl PathIntegrator<'_> {
                 }
                 beta /= q;
             }
-            wo = -s.wi;
+            wo = -wi;
             v = PathVertex::of(frame, &sp);
         }
         (l, rays)
@@ -235,6 +292,7 @@ impl PathTracer {
             base: g.albedo[i],
             metallic: m.metallic,
             roughness: m.roughness,
+            clearcoat: m.clearcoat,
         };
         let integrator = PathIntegrator {
             frame: &ctx.frame,

@@ -228,6 +228,28 @@ fn furnace_pt_glossy_matches_quadrature() {
             assert!(expected + err < 1.0, "a white single-scattering metal loses energy");
         }
     }
+    // A clear coat (γ = 1, smooth, F0 = 0.04) over the white dielectric: under L = 1 the coat
+    // reflects F_c of the environment and passes (1 − F_c) of the base's albedo:
+    // L = F_c(μ) + (1 − F_c(μ)) · A(μ), F_c = Schlick(0.04, μ) at the shading normal.
+    let table: Vec<f64> = (0..=64).map(|k| white_albedo(0.0, 0.5, (k as f64 / 64.0).max(1e-3))).collect();
+    let albedo = |mu: f64| {
+        let x = mu.clamp(0.0, 1.0) * 64.0;
+        let k = (x as usize).min(63);
+        table[k] + (table[k + 1] - table[k]) * (x - k as f64)
+    };
+    let mat =
+        Material { name: "coated".into(), base_color: Vec3::ONE, metallic: 0.0, roughness: 0.5, clearcoat: 1.0, ..Default::default() };
+    let (img, g) = render_pt(&furnace(mat), 32, 6, &[], 32, 32);
+    let pixels = on_instance(&img, &g, 0);
+    let expected = |i: usize| {
+        let fc = 0.04 + 0.96 * (1.0 - (g.shading_normal[i].dot(-g.view_dir[i]) as f64).clamp(0.0, 1.0)).powi(5);
+        fc + (1.0 - fc) * albedo(g.normal[i].dot(-g.view_dir[i]) as f64)
+    };
+    let diff: Vec<f64> = pixels.iter().map(|&i| img.pixels[i].x as f64 - expected(i)).collect();
+    let (err, se) = mean_se(&diff);
+    let mean_expected = pixels.iter().map(|&i| expected(i)).sum::<f64>() / pixels.len() as f64;
+    println!("pt furnace, clear-coated white dielectric (γ = 1), 32 spp: expected {mean_expected:.5}, error {err:+.2e} ± {se:.1e}");
+    assert!(err.abs() < 4.0 * se, "clear coat: {err} ± {se}");
     // A nearly smooth white metal reflects almost everything (F = 1, little masking).
     let mat = Material { name: "smooth metal".into(), base_color: Vec3::ONE, metallic: 1.0, roughness: 0.2, ..Default::default() };
     let (img, g) = render_pt(&furnace(mat), 32, 5, &[], 32, 32);

@@ -53,6 +53,9 @@ pub struct Material {
     /// Emitted radiance (W/(m²·sr) per channel): a non-zero emission makes every triangle with
     /// this material an area light.
     pub emission: Vec3,
+    /// Clear-coat strength γ in [0, 1] (0: none): a smooth dielectric coat (F0 = 0.04) over the
+    /// base, Filament's clear coat as the wavelet-cache paper uses it (its Eqs. 11–12).
+    pub clearcoat: f32,
 }
 
 impl Default for Material {
@@ -64,6 +67,7 @@ impl Default for Material {
             roughness: 1.0,
             metallic: 0.0,
             emission: Vec3::ZERO,
+            clearcoat: 0.0,
         }
     }
 }

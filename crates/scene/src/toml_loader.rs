@@ -23,7 +23,7 @@
 //! rotate_y_degrees = 30.0            # or rotate = { axis = [1, 0, 0], degrees = -90 }
 //! scale = 2.0                        # or [sx, sy, sz]
 //! # matrix = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]  # instead of the three: 16 numbers, column-major (glTF)
-//! material = { base_color = [0.8, 0.8, 0.8], base_color_texture = "fur.png", roughness = 0.5, metallic = 0.0, emission = [0.0, 0.0, 0.0] }
+//! material = { base_color = [0.8, 0.8, 0.8], base_color_texture = "fur.png", roughness = 0.5, metallic = 0.0, emission = [0.0, 0.0, 0.0], clearcoat = 0.0 }
 //!                                    # overrides the given fields of every material of the file
 //! spin = { axis = [0, 1, 0], period_s = 4.0, center = [0, 0, 0], phase = 0.0 }
 //!                                    # turns about the line through `center` (default: `translate`)
@@ -119,6 +119,7 @@ struct MaterialDef {
     roughness: Option<f32>,
     metallic: Option<f32>,
     emission: Option<[f32; 3]>,
+    clearcoat: Option<f32>,
 }
 
 #[derive(Deserialize, Clone, Copy)]
@@ -441,6 +442,9 @@ impl Builder<'_> {
         }
         if let Some(e) = def.emission {
             mat.emission = Vec3::from_array(e);
+        }
+        if let Some(c) = def.clearcoat {
+            mat.clearcoat = c;
         }
         if let Some(t) = &def.base_color_texture {
             mat.base_color_texture = self.textures.load(&self.dir.join(t), &mut self.scene, self.toml);

@@ -13,7 +13,12 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
 
     for (mi, mat) in scene.materials.iter().enumerate() {
         let name = &mat.name;
-        if !is_finite3(mat.base_color) || !is_finite3(mat.emission) || !mat.roughness.is_finite() || !mat.metallic.is_finite() {
+        if !is_finite3(mat.base_color)
+            || !is_finite3(mat.emission)
+            || !mat.roughness.is_finite()
+            || !mat.metallic.is_finite()
+            || !mat.clearcoat.is_finite()
+        {
             return Err(invalid(format!("material {mi} '{name}' has a non-finite parameter")));
         }
         if mat.base_color.min_element() < 0.0 || mat.emission.min_element() < 0.0 {
@@ -24,6 +29,9 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
                 "material {mi} '{name}': roughness {} and metallic {} must lie in [0, 1]",
                 mat.roughness, mat.metallic
             )));
+        }
+        if !(0.0..=1.0).contains(&mat.clearcoat) {
+            return Err(invalid(format!("material {mi} '{name}': clearcoat {} must lie in [0, 1]", mat.clearcoat)));
         }
         if let Some(t) = mat.base_color_texture
             && t as usize >= scene.textures.len()

@@ -477,7 +477,7 @@ scale = 2.0
 file = "tri.obj"
 translate = [5, 0, 0]
 spin = { period_s = 4.0 }
-material = { base_color = [0.1, 0.2, 0.3], roughness = 0.4, metallic = 1.0, emission = [1, 1, 1] }
+material = { base_color = [0.1, 0.2, 0.3], roughness = 0.4, metallic = 1.0, emission = [1, 1, 1], clearcoat = 0.5 }
 wave = { amplitude = 0.5, wavelength = 2.0, period_s = 1.0 }
 
 [[mesh]]
@@ -546,7 +546,7 @@ intensity = 5
     assert_eq!(f0.transforms[2].w_axis.y, -1.0);
     assert!(matches!(scene.meshes[0].deformation, Some(glimpse_scene::Deformation::Wave { .. })));
     let m = &scene.materials[scene.meshes[0].material as usize];
-    assert_eq!((m.base_color, m.roughness, m.metallic, m.emission), (Vec3::new(0.1, 0.2, 0.3), 0.4, 1.0, Vec3::ONE));
+    assert_eq!((m.base_color, m.roughness, m.metallic, m.emission, m.clearcoat), (Vec3::new(0.1, 0.2, 0.3), 0.4, 1.0, Vec3::ONE, 0.5));
     assert!(close(f1.lights[0].position, Vec3::new(0.0, 0.0, -1.0)) && close(f1.lights[0].intensity, Vec3::new(3.0, 1.5, 0.0)));
     assert!(close(f1.lights[1].direction, Vec3::NEG_Y));
     assert_eq!(f1.lights[1].kind, LightKind::Spot { inner_angle: 0.0, outer_angle: 30f32.to_radians() });
@@ -654,6 +654,7 @@ fn malformed_toml_is_a_parse_error_naming_the_key() {
         ("period.toml", "[[box]]\nspin = { period_s = 0 }\n", vec!["period_s must be a finite non-zero number"]),
         ("env.toml", "[[box]]\n[environment]\nconstant = [1, 1, 1]\nfile = \"a.hdr\"\n", vec!["exactly one of"]),
         ("ext.toml", "[[mesh]]\nfile = \"a.ply\"\n", vec!["must be .obj, .gltf or .glb"]),
+        ("coat.toml", "[[box]]\nmaterial = { clearcoat = 1.5 }\n", vec!["clearcoat 1.5 must lie in [0, 1]"]),
     ];
     for (name, content, needles) in cases {
         let path = write(&dir, name, content);

@@ -112,6 +112,8 @@ pub struct WavecacheParams {
     pub mirror_roughness: f32,
     /// Mirror chain depth (paper 4).
     pub mirror_depth: u32,
+    /// Clear-coat ray chain depth (paper 3; spec §5: "The maximum tracing depth is set to 3").
+    pub coat_depth: u32,
     /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
     /// materials; glTF has no pure Lambertian).
     pub diffuse_roughness: f32,
@@ -149,6 +151,7 @@ impl Default for WavecacheParams {
             layers: 0,
             mirror_roughness: 0.1,
             mirror_depth: 4,
+            coat_depth: 3,
             diffuse_roughness: 0.8,
             brdf: BrdfModel::Pbr,
             wo_frame: WoFrame::Reflect,
@@ -199,6 +202,7 @@ impl WavecacheParams {
             layers: params.u32("layers", base.layers, 0, 32)?,
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,
+            coat_depth: params.u32("coat_depth", base.coat_depth, 1, 64)?,
             diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
             brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {
                 "lambert" => BrdfModel::Lambert,

@@ -13,8 +13,11 @@
 //! - roughness < 0.1: a perfect mirror chain with Schlick F (h = n) up to `mirror_depth` (Eq. 18);
 //!   a chain that reaches a surface of roughness ≥ 0.1 shades it with the cache and its punctual
 //!   lights (spec §6.2's consistent choice), one that escapes sees the environment;
-//! - the clear-coat ray (Eq. 17, 21): the scene model has no clear-coat parameter, so γ = 0
-//!   everywhere and Eq. 21 reduces to Eq. 20 ([`clear_coat_fresnel`] is there and tested).
+//! - clear coat (Eqs. 11, 12, 17, 21; `Material::clearcoat` = γ > 0): everything above × (1 − F_c)
+//!   plus F_c × the radiance along the **clear-coat ray**, the mirror direction of ω_o about the
+//!   shading normal (a smooth coat: h = n, [`clear_coat_fresnel`]), traced in a chain of at most
+//!   `coat_depth` (paper: 3) whose next surfaces are shaded as here. `pt` shades the same coat
+//!   (`glimpse_render::pt::ClearCoat`), so the two compare like for like.
 //!
 //! The pixel's own emission and misses (environment) are added by `shade_pixels`, as for `pt`.
 //! Timings: `prepare` reports the precomputation stages ("brdf tables", "lighting cache") or
@@ -29,7 +32,7 @@ use crate::halfcube::map_frame;
 use crate::points::{self, QueryParams};
 use crate::{Class, WavecacheParams, WoFrame};
 use glimpse_core::{Image, Ray, Rng, Vec3};
-use glimpse_render::bsdf::{self, Bsdf};
+use glimpse_render::bsdf::{self, BrdfModel, Bsdf};
 use glimpse_render::direct::{self, punctual};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::Scene;
@@ -268,7 +271,47 @@ impl<'a> Runtime<'a> {
             return self.mirror(s, wo, depth);
         }
         let (d, rays) = self.punctual(s, wo);
-        (d + self.cached(s, wo), rays)
+        let base = d + self.cached(s, wo);
+        let gamma = self.frame.scene.materials[s.material as usize].clearcoat;
+        if gamma <= 0.0 || self.params.brdf != BrdfModel::Pbr {
+            return (base, rays);
+        }
+        // Eq. 21 and the clear-coat ray (Eqs. 11–12): the base (cache and punctual lights) seen
+        // through the coat, (1 − F_c), plus F_c times the radiance along the mirror direction,
+        // traced (h = n for the smooth coat, as `pt`'s `ClearCoat`).
+        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let fc = clear_coat_fresnel(ns.dot(wo).clamp(0.0, 1.0), gamma);
+        let (coat, coat_rays) = self.specular_ray(s, wo, ns, depth, self.params.coat_depth);
+        (base * (1.0 - fc) + coat * fc, rays + coat_rays)
+    }
+
+    /// Radiance arriving at `s` along the mirror direction of `wo` about `ns`: the environment on
+    /// a miss, else the hit's emission plus its own shading while the chain is shorter than
+    /// `max_depth` (emission only at the last link). (radiance, rays).
+    fn specular_ray(&self, s: &ShadePoint, wo: Vec3, ns: Vec3, depth: u32, max_depth: u32) -> (Vec3, u64) {
+        let dir = bsdf::reflect(wo, ns).normalize();
+        if dir.dot(s.normal) <= 0.0 {
+            return (Vec3::ZERO, 0);
+        }
+        let ray = Ray::spawn(s.position, s.normal, dir);
+        let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
+            return (direct::background(self.frame, dir), 1);
+        };
+        let sp = SurfacePoint::from_hit(self.frame, &ray, &hit);
+        let le = sp.emission(self.frame);
+        if depth + 1 >= max_depth {
+            return (le, 1);
+        }
+        let next = ShadePoint {
+            position: sp.position,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            base: sp.base_color(self.frame),
+            material: sp.material,
+            instance: sp.instance,
+        };
+        let (l, rays) = self.shade(&next, -dir, depth + 1);
+        (le + l, rays + 1)
     }
 
     /// Eq. 18: the perfect-mirror chain.
@@ -281,29 +324,8 @@ impl<'a> Runtime<'a> {
         }
         let f0 = Vec3::splat(0.04).lerp(s.base, m.metallic.clamp(0.0, 1.0));
         let f = bsdf::schlick(f0, cos);
-        let dir = bsdf::reflect(wo, ns).normalize();
-        if dir.dot(s.normal) <= 0.0 {
-            return (Vec3::ZERO, 0);
-        }
-        let ray = Ray::spawn(s.position, s.normal, dir);
-        let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
-            return (f * direct::background(self.frame, dir), 1);
-        };
-        let sp = SurfacePoint::from_hit(self.frame, &ray, &hit);
-        let le = sp.emission(self.frame);
-        if depth + 1 >= self.params.mirror_depth {
-            return (f * le, 1);
-        }
-        let next = ShadePoint {
-            position: sp.position,
-            normal: sp.normal,
-            shading_normal: sp.shading_normal,
-            base: sp.base_color(self.frame),
-            material: sp.material,
-            instance: sp.instance,
-        };
-        let (l, rays) = self.shade(&next, -dir, depth + 1);
-        (f * (le + l), rays + 1)
+        let (l, rays) = self.specular_ray(s, wo, ns, depth, self.params.mirror_depth);
+        (f * l, rays)
     }
 }
 

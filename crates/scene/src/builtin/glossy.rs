@@ -1,6 +1,6 @@
 //! Glossy objects for all-frequency GI (the `wavecache` technique against `pt`): on a rough grey
 //! floor (6 × 6 m, roughness 1), a gold metal sphere (GGX roughness 0.25), a red plastic box
-//! (roughness 0.45, turned 30°) and a small blue plastic sphere (roughness 0.35), lit by a
+//! (roughness 0.45, turned 30°) and a small blue plastic sphere (roughness 0.35) under a clear coat (γ = 1), lit by a
 //! procedural sky whose "sun" is no brighter than the sky (a smooth environment) and a 0.8 × 0.8 m
 //! emissive ceiling panel 2.4 m up, facing down. Static: precomputed caches stay valid.
 
@@ -29,10 +29,11 @@ pub fn glossy() -> Scene {
         ..Default::default()
     });
     let blue = s.add_material(Material {
-        name: "blue plastic".into(),
+        name: "blue clear-coated plastic".into(),
         base_color: Vec3::new(0.1, 0.25, 0.7),
         roughness: 0.35,
         metallic: 0.0,
+        clearcoat: 1.0,
         ..Default::default()
     });
     let panel = s.add_material(Material::emissive("panel", Vec3::splat(PANEL_RADIANCE)));

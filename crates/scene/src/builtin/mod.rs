@@ -37,7 +37,7 @@ pub fn describe(name: &str) -> &'static str {
             "an arch, a table, boxes and spheres on a large ground under a procedural sky with a low visible sun; one ball circles them"
         }
         "glossy" => {
-            "static glossy objects (GGX roughness 0.25–0.45: gold sphere, red box, blue sphere) on a rough floor under a smooth sky and a ceiling area light"
+            "static glossy objects (GGX roughness 0.25–0.45: gold sphere, red box, clear-coated blue sphere) on a rough floor under a smooth sky and a ceiling area light"
         }
         _ => "",
     }
