@@ -27,26 +27,10 @@ fn floor(material: u32, half: f32, y: f32) -> Mesh {
 
 /// A flat-faceted UV sphere (no vertex normals: an exactly convex polyhedron).
 fn sphere(material: u32, radius: f32, rings: u32, segments: u32) -> Mesh {
-    let mut m = Mesh { name: "sphere".into(), material, ..Default::default() };
-    for r in 0..=rings {
-        let theta = std::f32::consts::PI * r as f32 / rings as f32;
-        for s in 0..=segments {
-            let phi = std::f32::consts::TAU * s as f32 / segments as f32;
-            m.positions.push(Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin()) * radius);
-        }
-    }
-    let row = segments + 1;
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b) = (r * row + s, (r + 1) * row + s);
-            if r != 0 {
-                m.indices.push([a, a + 1, b]);
-            }
-            if r != rings - 1 {
-                m.indices.push([a + 1, b + 1, b]);
-            }
-        }
-    }
+    let mut m = glimpse_scene::builtin::sphere_mesh("sphere", material, rings, segments);
+    m.positions.iter_mut().for_each(|p| *p *= radius);
+    m.normals.clear();
+    m.uvs.clear();
     m
 }
 

@@ -52,28 +52,8 @@ fn quad(name: &str, corners: [Vec3; 4]) -> Mesh {
 }
 
 fn sphere(center: Vec3, radius: f32, rings: u32, segments: u32) -> Mesh {
-    let mut m = Mesh { name: "sphere".into(), ..Default::default() };
-    for r in 0..=rings {
-        let theta = PI * r as f32 / rings as f32;
-        for s in 0..=segments {
-            let phi = 2.0 * PI * s as f32 / segments as f32;
-            let n = Vec3::new(theta.sin() * phi.cos(), theta.cos(), theta.sin() * phi.sin());
-            m.positions.push(center + n * radius);
-            m.normals.push(n);
-        }
-    }
-    let row = segments + 1;
-    for r in 0..rings {
-        for s in 0..segments {
-            let (a, b) = (r * row + s, (r + 1) * row + s);
-            if r != 0 {
-                m.indices.push([a, a + 1, b]);
-            }
-            if r != rings - 1 {
-                m.indices.push([a + 1, b + 1, b]);
-            }
-        }
-    }
+    let mut m = glimpse_scene::builtin::sphere_mesh("sphere", 0, rings, segments);
+    m.positions.iter_mut().for_each(|p| *p = center + *p * radius);
     m
 }
 

@@ -88,7 +88,7 @@ pub(crate) fn box_mesh(name: &str, material: u32, half: Vec3) -> Mesh {
 }
 
 /// A UV sphere of radius 1 at the origin with smooth normals.
-pub(crate) fn sphere_mesh(name: &str, material: u32, rings: u32, segments: u32) -> Mesh {
+pub fn sphere_mesh(name: &str, material: u32, rings: u32, segments: u32) -> Mesh {
     let mut m = Mesh { name: name.into(), material, ..Default::default() };
     for r in 0..=rings {
         let theta = std::f32::consts::PI * r as f32 / rings as f32;
