@@ -52,6 +52,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     let cfg = EvalConfig {
         scene_spec: a.scene,
         techniques: a.techniques,
+        approximate_only: false,
         width: a.size.0,
         height: a.size.1,
         spp: a.spp,
@@ -72,20 +73,10 @@ pub fn run(a: EvalArgs) -> Result<()> {
 /// for `vpl-exact` alone would cost a minute), small enough to finish in about two minutes on two
 /// cores.
 pub fn demo(a: DemoArgs) -> Result<()> {
-    let registry = glimpse_eval::registry();
-    let scene = glimpse_scene::load("cornell")?;
-    let settings = glimpse_render::Settings::default();
-    let approximate = registry
-        .all()
-        .iter()
-        .filter(|t| t.reference.is_some())
-        // Techniques the Cornell box cannot run (no punctual lights, no environment) are left out.
-        .filter(|t| (t.create)(&scene, &settings, &glimpse_render::Params::default()).is_ok())
-        .map(|t| t.id.to_owned())
-        .collect();
     let cfg = EvalConfig {
         scene_spec: "cornell".into(),
-        techniques: approximate,
+        techniques: Vec::new(),
+        approximate_only: true,
         width: 256,
         height: 256,
         spp: 16,
@@ -98,7 +89,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         sweep: true,
         exposure: 0.0,
     };
-    finish(&cfg, run_eval(&cfg, &registry, |m| eprintln!("{m}"))?)
+    finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
 }
 
 fn finish(cfg: &EvalConfig, r: EvalResults) -> Result<()> {

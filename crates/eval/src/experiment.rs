@@ -21,8 +21,12 @@ use std::path::PathBuf;
 #[derive(Clone, Debug)]
 pub struct EvalConfig {
     pub scene_spec: String,
-    /// Technique ids; empty means every registered technique.
+    /// Technique ids; empty means every registered technique (or every approximate one, with
+    /// `approximate_only`), skipping those the scene cannot run.
     pub techniques: Vec<String>,
+    /// With an empty `techniques`: leave out the exact references as runs of their own (they
+    /// still render as the approximations' references).
+    pub approximate_only: bool,
     pub width: u32,
     pub height: u32,
     pub spp: u32,
@@ -106,8 +110,11 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     for w in &scene.warnings {
         log(&format!("warning: {w}"));
     }
-    let ids: Vec<String> =
-        if cfg.techniques.is_empty() { registry.all().iter().map(|t| t.id.to_owned()).collect() } else { cfg.techniques.clone() };
+    let ids: Vec<String> = if cfg.techniques.is_empty() {
+        registry.all().iter().filter(|t| !cfg.approximate_only || t.reference.is_some()).map(|t| t.id.to_owned()).collect()
+    } else {
+        cfg.techniques.clone()
+    };
     // Check the parameters once against every technique named and its reference: a key none of
     // them reads is a typo. Techniques the scene cannot support (no lights of their kind) are an
     // error when named, and skipped with the reason when running everything.
