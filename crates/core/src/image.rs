@@ -106,6 +106,11 @@ impl Image {
         if !matches!(ext.as_str(), "exr" | "hdr" | "png" | "jpg" | "jpeg") {
             return Err(ImageError::UnsupportedExtension { path: path.to_owned() });
         }
+        // A regular file under the image limit (not /dev/zero, not a FIFO).
+        crate::bounded_read::check_file(path, "image", crate::bounded_read::limit::IMAGE).map_err(|e| match e {
+            crate::bounded_read::ReadError::Io { source, .. } => io(source.to_string()),
+            other => io(other.to_string().trim_start_matches(&format!("{}: ", path.display())).to_string()),
+        })?;
         let dynamic = ::image::ImageReader::open(path)
             .map_err(|e| io(e.to_string()))?
             .with_guessed_format()
@@ -134,28 +139,36 @@ impl Image {
             return Err(ImageError::Empty { path: path.to_owned() });
         }
         let io = |message: String| ImageError::Io { path: path.to_owned(), message };
-        match extension(path).as_str() {
-            "exr" => {
-                // Scanline blocks, ZIP compression, increasing line order: the most widely
-                // readable lossless form (the `image` crate's encoder writes 64² RLE tiles in
-                // random line order, which NVIDIA's `flip` tool cannot load).
-                use exr::prelude::{Encoding, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage};
-                let w = self.width as usize;
-                let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
-                    let c = self.pixels[p.y() * w + p.x()];
-                    (c.x, c.y, c.z)
-                });
-                let layer = Layer::new((w, self.height as usize), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, channels);
-                exr::image::Image::from_layer(layer).write().to_file(path).map_err(|e| io(e.to_string()))
+        let encode = |w: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
+            let other = |e: &dyn std::fmt::Display| std::io::Error::other(e.to_string());
+            match extension(path).as_str() {
+                "exr" => {
+                    // Scanline blocks, ZIP compression, increasing line order: the most widely
+                    // readable lossless form (the `image` crate's encoder writes 64² RLE tiles in
+                    // random line order, which NVIDIA's `flip` tool cannot load).
+                    use exr::prelude::{Encoding, Layer, LayerAttributes, SpecificChannels, Vec2, WritableImage};
+                    let width = self.width as usize;
+                    let channels = SpecificChannels::rgb(|p: Vec2<usize>| {
+                        let c = self.pixels[p.y() * width + p.x()];
+                        (c.x, c.y, c.z)
+                    });
+                    let layer = Layer::new((width, self.height as usize), LayerAttributes::default(), Encoding::SMALL_LOSSLESS, channels);
+                    exr::image::Image::from_layer(layer).write().to_buffered(w).map_err(|e| other(&e))
+                }
+                "hdr" => {
+                    let data: Vec<f32> = self.pixels.iter().flat_map(|p| p.to_array()).collect();
+                    let buf = ::image::Rgb32FImage::from_raw(self.width, self.height, data)
+                        .ok_or_else(|| std::io::Error::other("pixel count does not match the size"))?;
+                    buf.write_to(w, ::image::ImageFormat::Hdr).map_err(|e| other(&e))
+                }
+                _ => self.to_srgb8(tone).write_to(w, ::image::ImageFormat::Png).map_err(|e| other(&e)),
             }
-            "hdr" => {
-                let data: Vec<f32> = self.pixels.iter().flat_map(|p| p.to_array()).collect();
-                let buf = ::image::Rgb32FImage::from_raw(self.width, self.height, data).expect("size matches pixels");
-                buf.save(path).map_err(|e| io(e.to_string()))
-            }
-            "png" => self.to_srgb8(tone).save(path).map_err(|e| io(e.to_string())),
-            _ => Err(ImageError::UnsupportedExtension { path: path.to_owned() }),
+        };
+        if !matches!(extension(path).as_str(), "exr" | "hdr" | "png") {
+            return Err(ImageError::UnsupportedExtension { path: path.to_owned() });
         }
+        // Temporary file, flush, sync, rename: a failure leaves the previous file untouched.
+        crate::atomic_file::write_atomic(path, encode).map_err(|e| io(format!("cannot {}: {}", e.step, e.source)))
     }
 
     /// The tone-mapped 8-bit sRGB image (see the module doc for the curve).
@@ -230,6 +243,32 @@ mod tests {
         let darker = img.to_srgb8(ToneMap { exposure: -3.0 });
         assert_eq!(darker.get_pixel(2, 0).0, [188, 188, 188], "4 · 2^-3 = 0.5");
         assert!((srgb_decode(srgb_encode(0.2)) - 0.2).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_failed_write_keeps_the_previous_file() {
+        let dir = std::env::temp_dir().join(format!("glimpse-img-fail-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        for ext in ["png", "hdr", "exr"] {
+            let p = dir.join(format!("old.{ext}"));
+            gradient().write(&p, ToneMap::default()).unwrap();
+            let before = std::fs::read(&p).unwrap();
+            // A path that is a folder: encoding succeeds, the final rename fails.
+            let blocked = dir.join(format!("folder.{ext}"));
+            std::fs::create_dir_all(&blocked).unwrap();
+            let e = gradient().write(&blocked, ToneMap::default()).unwrap_err().to_string();
+            println!("{e}");
+            assert!(e.contains(&format!("folder.{ext}")), "{e}");
+            assert_eq!(std::fs::read(&p).unwrap(), before);
+        }
+        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+            .unwrap()
+            .flatten()
+            .filter(|e| e.file_name().to_string_lossy().contains(crate::atomic_file::TEMP_MARKER))
+            .collect();
+        assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
+        let e = gradient().write(Path::new("/nonexistent-dir/x.png"), ToneMap::default()).unwrap_err().to_string();
+        assert!(e.contains("/nonexistent-dir/x.png"), "{e}");
     }
 
     #[test]

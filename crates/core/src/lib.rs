@@ -4,6 +4,9 @@
 //! uploaded to a GPU unchanged.
 
 pub mod aabb;
+pub mod atomic_file;
+pub mod bounded_read;
+pub mod cache_file;
 pub mod distribution;
 pub mod fast_math;
 pub mod frame;

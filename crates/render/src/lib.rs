@@ -26,13 +26,15 @@ pub use stats::{Stats, Stopwatch};
 pub use technique::{Need, RenderError, Settings, Technique, require};
 
 /// Where glimpse keeps data that is slow to compute (reference images, precomputations):
-/// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`.
+/// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`. `GLIMPSE_CACHE`
+/// set but empty turns disk caches off (`None`): an empty path would otherwise mean the current
+/// directory. An empty `XDG_CACHE_HOME` is ignored, as the XDG spec says.
 pub fn cache_dir() -> Option<std::path::PathBuf> {
     use std::path::PathBuf;
     if let Some(d) = std::env::var_os("GLIMPSE_CACHE") {
-        return Some(PathBuf::from(d));
+        return (!d.is_empty()).then(|| PathBuf::from(d));
     }
-    if let Some(d) = std::env::var_os("XDG_CACHE_HOME") {
+    if let Some(d) = std::env::var_os("XDG_CACHE_HOME").filter(|d| !d.is_empty()) {
         return Some(PathBuf::from(d).join("glimpse"));
     }
     std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/glimpse"))

@@ -1,0 +1,185 @@
+//! The one on-disk container of every glimpse cache (wavelet cache, voxel arrays, …):
+//!
+//! ```text
+//! offset  size  field
+//!      0     8  magic (which cache, e.g. b"WAVECACH")
+//!      8     4  format version (u32 LE): bumped whenever the payload's layout changes
+//!     12     4  reserved, 0
+//!     16     8  payload length in bytes (u64 LE)
+//!     24     8  XXH3-64 of the payload (u64 LE)
+//!     32     …  payload
+//! ```
+//!
+//! Written atomically ([`crate::atomic_file`]); read back with every header field and the checksum
+//! validated, so a truncated, bit-flipped or foreign file is a typed [`CacheFileError`], never data.
+//! The checksum only proves the bytes are the ones written: each cache still validates its payload's
+//! structure (index ranges, finite floats) before use. [`load_or_discard`] is the policy every
+//! reader follows: a bad file is reported in one warning line, deleted, and the caller rebuilds.
+
+use crate::atomic_file::{self, STALE_TEMP_AGE, WriteError};
+use crate::bounded_read::{self, ReadError};
+use std::path::Path;
+
+pub const HEADER_BYTES: usize = 32;
+
+/// Which cache a file holds and the layout version its payload has.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct CacheFormat {
+    pub magic: [u8; 8],
+    pub version: u32,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum CacheFileError {
+    #[error(transparent)]
+    Read(#[from] ReadError),
+    #[error("{path}: not a {expected} cache file (magic {found:?})")]
+    Magic { path: String, expected: String, found: String },
+    #[error("{path}: format version {found}, this glimpse reads version {expected}")]
+    Version { path: String, found: u32, expected: u32 },
+    #[error("{path}: the header says {expected} payload bytes, the file holds {found}")]
+    Length { path: String, expected: u64, found: u64 },
+    #[error("{path}: checksum mismatch (the file is corrupt)")]
+    Checksum { path: String },
+    #[error("{path}: invalid content: {message}")]
+    Invalid { path: String, message: String },
+}
+
+impl CacheFileError {
+    /// No file there (a plain cache miss, not worth a warning).
+    pub fn is_missing(&self) -> bool {
+        matches!(self, CacheFileError::Read(e) if e.is_not_found())
+    }
+}
+
+/// XXH3-64 of `payload`, the checksum in the header.
+pub fn checksum(payload: &[u8]) -> u64 {
+    xxhash_rust::xxh3::xxh3_64(payload)
+}
+
+/// The whole file (header + payload) as bytes.
+pub fn encode(format: CacheFormat, payload: &[u8]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
+    out.extend_from_slice(&format.magic);
+    out.extend_from_slice(&format.version.to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes());
+    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
+    out.extend_from_slice(&checksum(payload).to_le_bytes());
+    out.extend_from_slice(payload);
+    out
+}
+
+/// Validates a whole file's bytes and returns its payload.
+pub fn decode(format: CacheFormat, path: &Path, data: &[u8]) -> Result<Vec<u8>, CacheFileError> {
+    let p = || path.display().to_string();
+    let u32_at = |at: usize| u32::from_le_bytes(data[at..at + 4].try_into().unwrap_or([0; 4]));
+    let u64_at = |at: usize| u64::from_le_bytes(data[at..at + 8].try_into().unwrap_or([0; 8]));
+    if data.len() < HEADER_BYTES || data[..8] != format.magic {
+        let found = String::from_utf8_lossy(&data[..data.len().min(8)]).into_owned();
+        return Err(CacheFileError::Magic { path: p(), expected: String::from_utf8_lossy(&format.magic).into(), found });
+    }
+    if u32_at(8) != format.version {
+        return Err(CacheFileError::Version { path: p(), found: u32_at(8), expected: format.version });
+    }
+    let (len, sum) = (u64_at(16), u64_at(24));
+    let found = (data.len() - HEADER_BYTES) as u64;
+    if len != found || u32_at(12) != 0 {
+        return Err(CacheFileError::Length { path: p(), expected: len, found });
+    }
+    let payload = &data[HEADER_BYTES..];
+    if checksum(payload) != sum {
+        return Err(CacheFileError::Checksum { path: p() });
+    }
+    Ok(payload.to_vec())
+}
+
+/// Writes `payload` to `path` (creating its folder) atomically, and removes stale temporary
+/// files that killed writers left in that folder.
+pub fn write(path: &Path, format: CacheFormat, payload: &[u8]) -> Result<(), WriteError> {
+    if let Some(dir) = path.parent() {
+        std::fs::create_dir_all(dir).map_err(|source| WriteError { path: path.to_owned(), step: "create the folder of", source })?;
+        atomic_file::remove_stale_temps(dir, STALE_TEMP_AGE);
+    }
+    atomic_file::write_bytes_atomic(path, &encode(format, payload))
+}
+
+/// Reads and validates the file at `path` (a regular file of at most `limit` bytes).
+pub fn read(path: &Path, format: CacheFormat, limit: u64) -> Result<Vec<u8>, CacheFileError> {
+    let data = bounded_read::read_bounded(path, "cache file", limit)?;
+    decode(format, path, &data)
+}
+
+/// The policy of every cache reader: reads `path` and turns its payload into a value with
+/// `parse` (which validates the payload's structure). A missing file is `None`; a bad one
+/// (header, checksum or `parse` failing) is reported in one warning line on stderr and deleted,
+/// and is `None` too, so the caller rebuilds and rewrites it.
+pub fn load_or_discard<T>(path: &Path, format: CacheFormat, limit: u64, parse: impl FnOnce(&[u8]) -> Result<T, String>) -> Option<T> {
+    let result = read(path, format, limit)
+        .and_then(|payload| parse(&payload).map_err(|message| CacheFileError::Invalid { path: path.display().to_string(), message }));
+    match result {
+        Ok(v) => Some(v),
+        Err(e) if e.is_missing() => None,
+        Err(e) => {
+            let removed = if std::fs::remove_file(path).is_ok() { "deleted it; rebuilding" } else { "rebuilding" };
+            eprintln!("warning: bad cache file {e}; {removed}");
+            None
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const F: CacheFormat = CacheFormat { magic: *b"TESTCACH", version: 3 };
+
+    fn tmp(name: &str) -> std::path::PathBuf {
+        let d = std::env::temp_dir().join(format!("glimpse-cachefile-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        d.join(name)
+    }
+
+    #[test]
+    fn round_trip() {
+        let p = tmp("ok.bin");
+        write(&p, F, b"payload bytes").unwrap();
+        assert_eq!(read(&p, F, 1 << 20).unwrap(), b"payload bytes");
+    }
+
+    #[test]
+    fn every_single_bit_flip_and_truncation_is_rejected() {
+        let file = encode(F, b"some payload of a cache");
+        let p = Path::new("mem");
+        for bit in 0..file.len() * 8 {
+            let mut m = file.clone();
+            m[bit / 8] ^= 1 << (bit % 8);
+            assert!(decode(F, p, &m).is_err(), "flip of bit {bit} accepted");
+        }
+        for len in 0..file.len() {
+            assert!(decode(F, p, &file[..len]).is_err(), "truncation to {len} accepted");
+        }
+        let mut longer = file.clone();
+        longer.push(0);
+        assert!(decode(F, p, &longer).is_err());
+        let other = CacheFormat { version: 4, ..F };
+        assert!(matches!(decode(other, p, &file), Err(CacheFileError::Version { found: 3, expected: 4, .. })));
+        println!("{} bit flips and {} truncations rejected", file.len() * 8, file.len());
+    }
+
+    #[test]
+    fn a_bad_file_is_deleted_and_a_missing_one_is_a_quiet_miss() {
+        let p = tmp("bad.bin");
+        let mut data = encode(F, b"abc");
+        *data.last_mut().unwrap() ^= 0x40;
+        std::fs::write(&p, &data).unwrap();
+        assert!(load_or_discard(&p, F, 1 << 20, |b| Ok(b.to_vec())).is_none());
+        assert!(!p.exists(), "the bad file is deleted");
+        assert!(load_or_discard(&p, F, 1 << 20, |b| Ok(b.to_vec())).is_none());
+        // A payload its parser rejects is discarded too.
+        write(&p, F, b"abc").unwrap();
+        assert!(load_or_discard(&p, F, 1 << 20, |_| Err::<(), _>("bad index".into())).is_none());
+        assert!(!p.exists());
+        write(&p, F, b"abc").unwrap();
+        assert_eq!(load_or_discard(&p, F, 1 << 20, |b| Ok(b.to_vec())).as_deref(), Some(&b"abc"[..]));
+    }
+}
