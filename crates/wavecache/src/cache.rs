@@ -2,16 +2,20 @@
 //! materials, the lighting cache of every mesh, their octrees — as flat arrays of plain `Copy`
 //! types (GPU-uploadable), and its disk cache: `cache_dir()/wavecache/<hash>.bin`, keyed by a
 //! hash of the scene's geometry, materials, lights and environment, every parameter, the seed
-//! and the crate version. A read failure just recomputes.
+//! and the crate version. The file is a `glimpse_core::cache_file` (version, XXH3 checksum) and
+//! is fully validated before use ([`WaveCache::validate`]); a bad file is reported in one warning
+//! line, deleted and recomputed.
 
 use crate::bake::{self, CachePoint, Integrator, MeshCache};
 use crate::brdf::{self, BrdfTable, MaterialBrdf};
-use crate::haar::{HaarNode, TreeRef};
+use crate::haar::{self, HaarNode, TreeRef};
 use crate::half::f32_to_f16_finite;
-use crate::points::{self, OctNode};
+use crate::points::{self, MAX_DEPTH, OctNode};
 use crate::{Class, WavecacheParams};
 use bytemuck::Pod;
 use glimpse_core::Vec3;
+use glimpse_core::bounded_read::{ReadError, limit};
+use glimpse_core::cache_file::{self, CacheFileError, CacheFormat};
 use glimpse_render::Stopwatch;
 use glimpse_scene::SceneFrame;
 use glimpse_trace::ExactTracer;
@@ -224,18 +228,15 @@ impl WaveCache {
     }
 
     // ----------------------------------------------------------------------------------------
-    // Disk cache
+    // Disk cache: a `glimpse_core::cache_file` (magic, version, length, XXH3 checksum) whose
+    // payload is the key and the arrays, each as a u64 byte length and its plain bytes.
 
-    const MAGIC: &'static [u8; 8] = b"WAVECAC1";
+    /// Bump when the payload's layout or any array element's layout changes.
+    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 2 };
 
-    /// Writes the cache to `path` (creating its folder).
-    pub fn save(&self, path: &Path) -> Result<(), CacheError> {
-        let io = |source| CacheError::Io { path: path.display().to_string(), source };
-        if let Some(d) = path.parent() {
-            std::fs::create_dir_all(d).map_err(io)?;
-        }
+    /// The payload of [`WaveCache::FORMAT`].
+    pub fn to_payload(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(self.memory_bytes() + 256);
-        out.extend_from_slice(Self::MAGIC);
         out.extend_from_slice(&self.key.to_le_bytes());
         fn put<T: Pod>(out: &mut Vec<u8>, v: &[T]) {
             out.extend_from_slice(&(std::mem::size_of_val(v) as u64).to_le_bytes());
@@ -252,72 +253,132 @@ impl WaveCache {
         put(&mut out, &self.radiance_trees);
         put(&mut out, &self.radiance_nodes);
         put(&mut out, &self.build_info);
-        // Write then rename, so a reader never sees half a file.
-        let tmp = path.with_extension(format!("tmp{}", std::process::id()));
-        std::fs::write(&tmp, &out).map_err(io)?;
-        std::fs::rename(&tmp, path).map_err(io)
+        out
     }
 
-    /// Reads a cache written by [`WaveCache::save`]; the key must match.
-    pub fn load(path: &Path, key: u64) -> Result<WaveCache, CacheError> {
-        let data = std::fs::read(path).map_err(|source| CacheError::Io { path: path.display().to_string(), source })?;
-        let bad = |message: &str| CacheError::Format { path: path.display().to_string(), message: message.into() };
-        if data.len() < 16 || &data[..8] != Self::MAGIC {
-            return Err(bad("not a wavecache file"));
+    /// Parses and fully validates ([`WaveCache::validate`]) a payload; the key must match.
+    pub fn from_payload(data: &[u8], key: u64) -> Result<WaveCache, String> {
+        if data.len() < 8 || u64::from_le_bytes(data[..8].try_into().map_err(|_| "short payload")?) != key {
+            return Err("key mismatch".into());
         }
-        if u64::from_le_bytes(data[8..16].try_into().map_err(|_| bad("short header"))?) != key {
-            return Err(bad("key mismatch"));
-        }
-        let mut at = 16usize;
-        fn get<T: Pod>(data: &[u8], at: &mut usize) -> Option<Vec<T>> {
-            let len = u64::from_le_bytes(data.get(*at..*at + 8)?.try_into().ok()?) as usize;
+        let mut at = 8usize;
+        fn get<T: Pod>(data: &[u8], at: &mut usize, what: &str) -> Result<Vec<T>, String> {
+            let truncated = || format!("{what}: truncated");
+            let len: usize = u64::from_le_bytes(data.get(*at..*at + 8).ok_or_else(truncated)?.try_into().map_err(|_| truncated())?)
+                .try_into()
+                .map_err(|_| truncated())?;
             *at += 8;
-            let body = data.get(*at..at.checked_add(len)?)?;
+            // The length is checked against the bytes that back it before anything is allocated.
+            let body = data.get(*at..at.checked_add(len).ok_or_else(truncated)?).ok_or_else(truncated)?;
             *at += len;
             if !len.is_multiple_of(std::mem::size_of::<T>()) {
-                return None;
+                return Err(format!("{what}: {len} bytes is not a whole number of elements"));
             }
-            Some(bytemuck::pod_collect_to_vec(body))
+            Ok(bytemuck::pod_collect_to_vec(body))
         }
-        let short = || bad("truncated");
         let c = WaveCache {
             key,
-            brdf_tables: get(&data, &mut at).ok_or_else(short)?,
-            brdf_trees: get(&data, &mut at).ok_or_else(short)?,
-            brdf_nodes: get(&data, &mut at).ok_or_else(short)?,
-            albedo: get(&data, &mut at).ok_or_else(short)?,
-            meshes: get(&data, &mut at).ok_or_else(short)?,
-            octree: get(&data, &mut at).ok_or_else(short)?,
-            points: get(&data, &mut at).ok_or_else(short)?,
-            irradiance: get(&data, &mut at).ok_or_else(short)?,
-            radiance_trees: get(&data, &mut at).ok_or_else(short)?,
-            radiance_nodes: get(&data, &mut at).ok_or_else(short)?,
-            build_info: get(&data, &mut at).ok_or_else(short)?,
+            brdf_tables: get(data, &mut at, "BRDF tables")?,
+            brdf_trees: get(data, &mut at, "BRDF trees")?,
+            brdf_nodes: get(data, &mut at, "BRDF nodes")?,
+            albedo: get(data, &mut at, "albedo")?,
+            meshes: get(data, &mut at, "meshes")?,
+            octree: get(data, &mut at, "octree")?,
+            points: get(data, &mut at, "points")?,
+            irradiance: get(data, &mut at, "irradiance")?,
+            radiance_trees: get(data, &mut at, "radiance trees")?,
+            radiance_nodes: get(data, &mut at, "radiance nodes")?,
+            build_info: get(data, &mut at, "build info")?,
         };
-        c.validate().map_err(|m| bad(&m))?;
+        if at != data.len() {
+            return Err(format!("{} bytes after the last array", data.len() - at));
+        }
+        c.validate()?;
         Ok(c)
     }
 
-    /// Index checks, so a corrupt file is an error rather than a panic at runtime.
+    /// Writes the cache to `path` (creating its folder) atomically.
+    pub fn save(&self, path: &Path) -> Result<(), CacheError> {
+        cache_file::write(path, Self::FORMAT, &self.to_payload())
+            .map_err(|e| CacheError::Io { path: path.display().to_string(), source: e.into() })
+    }
+
+    /// Reads a cache written by [`WaveCache::save`]: header, checksum, key and structure validated.
+    pub fn load(path: &Path, key: u64) -> Result<WaveCache, CacheError> {
+        let payload = cache_file::read(path, Self::FORMAT, limit::CACHE).map_err(|e| match e {
+            CacheFileError::Read(ReadError::Io { source, .. }) => CacheError::Io { path: path.display().to_string(), source },
+            other => CacheError::Format { path: path.display().to_string(), message: other.to_string() },
+        })?;
+        Self::from_payload(&payload, key).map_err(|message| CacheError::Format { path: path.display().to_string(), message })
+    }
+
+    /// The disk cache's policy ([`cache_file::load_or_discard`]): the cache at `path` if it is
+    /// valid; a missing file is `None`, a bad one is reported in one warning line, deleted, and
+    /// `None` (the caller rebuilds).
+    pub fn load_or_discard(path: &Path, key: u64) -> Option<WaveCache> {
+        cache_file::load_or_discard(path, Self::FORMAT, limit::CACHE, |payload| Self::from_payload(payload, key))
+    }
+
+    /// Full structural validation, so that no file — corrupt, or crafted with a valid checksum —
+    /// can make the runtime panic, loop or read out of range: every range inside its array, every
+    /// octree and Haar tree a proper tree (children after their parent, each node reached exactly
+    /// once: no cycles, no sharing), depths within the traversal stacks, and every float finite.
     pub fn validate(&self) -> Result<(), String> {
-        for m in &self.meshes {
-            if (m.first_node + m.node_count) as usize > self.octree.len() || (m.first_point + m.point_count) as usize > self.points.len() {
-                return Err("mesh range out of bounds".into());
-            }
+        let materials = self.brdf_tables.len();
+        if self.albedo.len() != materials * ALBEDO_BINS as usize {
+            return Err(format!("{} albedo entries for {materials} materials", self.albedo.len()));
         }
-        for t in self.brdf_trees.iter() {
-            if t.count == 0 || (t.first as u64 + t.count as u64) as usize > self.brdf_nodes.len() {
-                return Err("BRDF tree out of bounds".into());
-            }
+        if self.albedo.iter().flatten().any(|v| !v.is_finite()) {
+            return Err("non-finite albedo".into());
         }
-        for t in self.radiance_trees.iter() {
-            if t.count == 0 || (t.first as u64 + t.count as u64) as usize > self.radiance_nodes.len() {
-                return Err("radiance tree out of bounds".into());
-            }
+        if self.build_info.iter().any(|v| !v.is_finite()) {
+            return Err("non-finite build info".into());
+        }
+        for (i, t) in self.brdf_trees.iter().enumerate() {
+            validate_haar_tree(&self.brdf_nodes, t).map_err(|m| format!("BRDF tree {i}: {m}"))?;
+        }
+        for (i, t) in self.radiance_trees.iter().enumerate() {
+            validate_haar_tree(&self.radiance_nodes, t).map_err(|m| format!("radiance tree {i}: {m}"))?;
         }
         for (mi, t) in self.brdf_tables.iter().enumerate() {
-            if t.res > 0 && (t.first_tree as u64 + (t.n_u1 * t.n_u2) as u64) as usize > self.brdf_trees.len() {
-                return Err(format!("BRDF table {mi} out of bounds"));
+            if t.res == 0 {
+                continue;
+            }
+            let trees = t.n_u1 as u64 * t.n_u2 as u64;
+            if t.n_u1 == 0 || t.n_u2 == 0 || t.first_tree as u64 + trees > self.brdf_trees.len() as u64 {
+                return Err(format!("BRDF table {mi}: grid {}×{} from tree {} out of range", t.n_u1, t.n_u2, t.first_tree));
+            }
+        }
+        if self.irradiance.iter().flatten().any(|&h| !f16_is_finite(h)) {
+            return Err("non-finite irradiance".into());
+        }
+        for (mi, m) in self.meshes.iter().enumerate() {
+            let bad = |what: String| Err(format!("mesh {mi}: {what}"));
+            if m.class > Class::Mirror as u32 || m.material as usize >= materials {
+                return bad(format!("class {} or material {} out of range", m.class, m.material));
+            }
+            if !m.r_max.is_finite() || m.r_max < 0.0 {
+                return bad(format!("r_max {}", m.r_max));
+            }
+            let nodes_end = m.first_node as u64 + m.node_count as u64;
+            let points_end = m.first_point as u64 + m.point_count as u64;
+            if nodes_end > self.octree.len() as u64 || points_end > self.points.len() as u64 {
+                return bad("node or point range out of bounds".into());
+            }
+            if m.point_count > 0 && m.node_count == 0 {
+                return bad("points without an octree".into());
+            }
+            let nodes = &self.octree[m.first_node as usize..nodes_end as usize];
+            validate_octree(nodes, m.point_count).map_err(|e| format!("mesh {mi}: {e}"))?;
+            let payloads = if m.class == Class::Glossy as u32 { self.radiance_trees.len() } else { self.irradiance.len() };
+            for p in &self.points[m.first_point as usize..points_end as usize] {
+                let floats = p.position.iter().chain(&p.normal).chain(&p.shading_normal).chain([&p.energy]);
+                if floats.into_iter().any(|v| !v.is_finite()) {
+                    return bad("non-finite cache point".into());
+                }
+                if m.class != Class::Mirror as u32 && p.payload as usize >= payloads {
+                    return bad(format!("point payload {} out of range ({payloads})", p.payload));
+                }
             }
         }
         Ok(())
@@ -330,6 +391,90 @@ impl WaveCache {
 }
 
 use glimpse_render::bsdf::BrdfModel;
+
+/// Levels of the largest half-cube a tree may come from (N = 2^16 ≫ any map resolution); it
+/// bounds [`haar::product`]'s fixed stack (3 entries per level + 1 ≤ 64).
+pub const MAX_HAAR_LEVELS: u32 = 16;
+
+fn f16_is_finite(h: u16) -> bool {
+    h & 0x7c00 != 0x7c00
+}
+
+/// A packed Haar tree ([`haar::pack`]) inside `nodes`: in range, each node's 4 children after it
+/// and inside the tree, every node reached exactly once from the root, no deeper than `levels`.
+fn validate_haar_tree(nodes: &[HaarNode], t: &TreeRef) -> Result<(), String> {
+    let end = t.first as u64 + t.count as u64;
+    if t.count == 0 || end > nodes.len() as u64 {
+        return Err(format!("nodes {}..{end} out of bounds ({})", t.first, nodes.len()));
+    }
+    if t.levels > MAX_HAAR_LEVELS || t.depth > t.levels {
+        return Err(format!("levels {} / depth {} out of range", t.levels, t.depth));
+    }
+    let tree = &nodes[t.first as usize..end as usize];
+    // level[i] + 1 of every node reached so far (0: not reached).
+    let mut level = vec![0u32; tree.len()];
+    level[0] = 1;
+    for (i, n) in tree.iter().enumerate() {
+        if level[i] == 0 {
+            return Err(format!("node {i} is not reached from the root"));
+        }
+        if n.c.iter().chain(n.d.iter().flatten()).any(|&h| !f16_is_finite(h)) {
+            return Err(format!("node {i}: non-finite coefficient"));
+        }
+        if n.first_child == haar::NONE {
+            continue;
+        }
+        let (first, l) = (n.first_child as u64, level[i]);
+        if first <= i as u64 || first + 4 > tree.len() as u64 || l >= t.levels {
+            return Err(format!("node {i}: children at {first} out of order, out of range or too deep"));
+        }
+        for (c, child) in level.iter_mut().enumerate().skip(first as usize).take(4) {
+            if *child != 0 {
+                return Err(format!("node {c} has two parents"));
+            }
+            *child = l + 1;
+        }
+    }
+    Ok(())
+}
+
+/// One mesh's octree (indices relative to its first node): children contiguous, after their
+/// parent and inside the mesh's nodes, every node reached exactly once, depth ≤ [`MAX_DEPTH`],
+/// leaves' points inside the mesh's `point_count`, bounds and normals finite.
+fn validate_octree(nodes: &[OctNode], point_count: u32) -> Result<(), String> {
+    let mut depth = vec![0u32; nodes.len()];
+    if let Some(d) = depth.first_mut() {
+        *d = 1;
+    }
+    for (i, n) in nodes.iter().enumerate() {
+        if depth[i] == 0 {
+            return Err(format!("octree node {i} is not reached from the root"));
+        }
+        let floats = n.min.iter().chain(&n.max).chain(&n.normal);
+        // An empty node keeps the empty box (±∞): only nodes with points need finite bounds.
+        if n.point_count > 0 && floats.into_iter().any(|v| !v.is_finite()) {
+            return Err(format!("octree node {i}: non-finite bounds or normal"));
+        }
+        if n.child_count == 0 {
+            if n.first_point as u64 + n.point_count as u64 > point_count as u64 {
+                return Err(format!("octree leaf {i}: points out of range"));
+            }
+            continue;
+        }
+        let (first, count) = (n.first_child as u64, n.child_count as u64);
+        if count > 8 || first <= i as u64 || first + count > nodes.len() as u64 || depth[i] > MAX_DEPTH {
+            return Err(format!("octree node {i}: children {first}+{count} out of order, out of range or too deep"));
+        }
+        let d = depth[i] + 1;
+        for (c, child) in depth.iter_mut().enumerate().skip(first as usize).take(count as usize) {
+            if *child != 0 {
+                return Err(format!("octree node {c} has two parents"));
+            }
+            *child = d;
+        }
+    }
+    Ok(())
+}
 
 /// FNV-1a, 64 bit.
 pub struct Fnv(pub u64);

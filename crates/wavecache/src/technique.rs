@@ -89,7 +89,7 @@ impl Wavecache {
         let path = if self.params.disk_cache { WaveCache::path_for(key) } else { None };
         if let Some(path) = &path {
             let sw = glimpse_render::Stopwatch::start();
-            if let Ok(c) = WaveCache::load(path, key) {
+            if let Some(c) = WaveCache::load_or_discard(path, key) {
                 stats.stage("cache load", sw.ms());
                 self.cache = Some(c);
                 self.source = "disk";
@@ -116,7 +116,7 @@ impl Wavecache {
         if let Some(path) = &path {
             // A failed write only costs the next run a recomputation.
             if let Err(e) = c.save(path) {
-                eprintln!("wavecache: {e}");
+                eprintln!("warning: {e}");
             }
         }
         self.cache = Some(c);
