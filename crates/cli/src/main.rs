@@ -4,6 +4,7 @@
 mod args;
 mod bench_cmd;
 mod eval_cmd;
+mod exit;
 mod play_cmd;
 mod render_cmd;
 
@@ -37,7 +38,9 @@ enum Command {
 }
 
 fn main() -> ExitCode {
+    exit::install_panic_hook();
     let cli = Cli::parse();
+    exit::panic_if_asked();
     let result = match cli.command {
         Command::Demo(a) => eval_cmd::demo(a),
         Command::Render(a) => render_cmd::run(a),
