@@ -48,6 +48,13 @@ where
     F: FnOnce(&mut BufWriter<File>) -> io::Result<()>,
 {
     let err = |step, source| WriteError { path: path.to_owned(), step, source };
+    // Renaming over a device (`-o /dev/full`), a FIFO or a folder would replace it: refuse.
+    if let Ok(meta) = std::fs::symlink_metadata(path)
+        && !meta.is_file()
+        && !meta.file_type().is_symlink()
+    {
+        return Err(err("replace", io::Error::new(io::ErrorKind::InvalidInput, "it exists and is not a regular file")));
+    }
     let tmp = temp_path(path);
     let file = File::create(&tmp).map_err(|e| err("create a temporary file", e))?;
     let result = (|| {
@@ -132,6 +139,18 @@ mod tests {
     fn an_unwritable_directory_is_an_error_naming_the_file() {
         let e = write_bytes_atomic(Path::new("/nonexistent-dir/x.png"), b"x").unwrap_err();
         assert!(e.to_string().contains("/nonexistent-dir/x.png"), "{e}");
+    }
+
+    #[test]
+    fn a_device_or_folder_is_never_replaced() {
+        let d = dir("device");
+        let e = write_bytes_atomic(&d, b"x").unwrap_err().to_string();
+        assert!(e.contains("not a regular file"), "{e}");
+        if Path::new("/dev/full").exists() {
+            let e = write_bytes_atomic(Path::new("/dev/full"), b"x").unwrap_err().to_string();
+            println!("{e}");
+            assert!(e.contains("/dev/full") && e.contains("not a regular file"), "{e}");
+        }
     }
 
     #[test]

@@ -50,11 +50,10 @@ impl Cache {
         if let Some(p) = self.path(key) {
             if let Some(dir) = p.parent() {
                 let _ = std::fs::create_dir_all(dir);
+                glimpse_core::atomic_file::remove_stale_temps(dir, glimpse_core::atomic_file::STALE_TEMP_AGE);
             }
-            let tmp = p.with_extension("tmp.exr");
-            if image.write(&tmp, ToneMap::default()).is_ok() {
-                let _ = std::fs::rename(&tmp, &p);
-            }
+            // Image::write is atomic (temporary file, sync, rename).
+            let _ = image.write(&p, ToneMap::default());
         }
     }
 }

@@ -254,7 +254,8 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         runs,
         skipped,
     };
-    std::fs::write(cfg.out_dir.join("results.json"), serde_json::to_string_pretty(&results)?).context("writing results.json")?;
+    glimpse_core::atomic_file::write_bytes_atomic(&cfg.out_dir.join("results.json"), serde_json::to_string_pretty(&results)?.as_bytes())
+        .context("writing results.json")?;
     crate::report::write_html(&results, &cfg.out_dir.join("report.html"))?;
     Ok(results)
 }

@@ -106,5 +106,6 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
         );
     }
     h += "</body></html>\n";
-    std::fs::write(path, h).with_context(|| format!("{}: cannot write the report", path.display()))
+    glimpse_core::atomic_file::write_bytes_atomic(path, h.as_bytes())
+        .with_context(|| format!("{}: cannot write the report", path.display()))
 }
