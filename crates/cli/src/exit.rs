@@ -18,6 +18,10 @@ pub fn install_panic_hook() {
     // The first panicking thread reports and exits; any other waits here until the process ends.
     static FIRST: std::sync::Mutex<()> = std::sync::Mutex::new(());
     std::panic::set_hook(Box::new(move |info| {
+        // A loader contains its readers' panics and reports them as an error naming the file.
+        if glimpse_core::catch_panic::is_catching() {
+            return;
+        }
         let _only_one = FIRST.lock();
         let backtrace = std::env::var_os("RUST_BACKTRACE").is_some_and(|v| !v.is_empty() && v != "0");
         if backtrace {

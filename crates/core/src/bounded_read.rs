@@ -22,13 +22,22 @@ pub mod limit {
 pub enum ReadError {
     #[error("{path}: {source}")]
     Io { path: PathBuf, source: std::io::Error },
-    #[error("{path}: not a regular file (a {kind} must be a plain file, not a device, FIFO or folder)")]
+    #[error("{path}: not a regular file (every {kind} must be a plain file, not a device, FIFO or folder)")]
     NotRegular { path: PathBuf, kind: &'static str },
     #[error("{path}: {size} bytes is more than the {limit}-byte limit for a {kind}")]
     TooLarge { path: PathBuf, kind: &'static str, size: u64, limit: u64 },
 }
 
 impl ReadError {
+    /// The message without the leading path (for errors that name the file themselves).
+    pub fn reason(&self) -> String {
+        let path = match self {
+            ReadError::Io { path, .. } | ReadError::NotRegular { path, .. } | ReadError::TooLarge { path, .. } => path,
+        };
+        let text = self.to_string();
+        text.strip_prefix(&format!("{}: ", path.display())).map(str::to_owned).unwrap_or(text)
+    }
+
     pub fn is_not_found(&self) -> bool {
         matches!(self, ReadError::Io { source, .. } if source.kind() == std::io::ErrorKind::NotFound)
     }

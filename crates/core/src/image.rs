@@ -107,10 +107,7 @@ impl Image {
             return Err(ImageError::UnsupportedExtension { path: path.to_owned() });
         }
         // A regular file under the image limit (not /dev/zero, not a FIFO).
-        crate::bounded_read::check_file(path, "image", crate::bounded_read::limit::IMAGE).map_err(|e| match e {
-            crate::bounded_read::ReadError::Io { source, .. } => io(source.to_string()),
-            other => io(other.to_string().trim_start_matches(&format!("{}: ", path.display())).to_string()),
-        })?;
+        crate::bounded_read::check_file(path, "image", crate::bounded_read::limit::IMAGE).map_err(|e| io(e.reason()))?;
         let dynamic = ::image::ImageReader::open(path)
             .map_err(|e| io(e.to_string()))?
             .with_guessed_format()

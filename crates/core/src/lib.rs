@@ -7,6 +7,7 @@ pub mod aabb;
 pub mod atomic_file;
 pub mod bounded_read;
 pub mod cache_file;
+pub mod catch_panic;
 pub mod distribution;
 pub mod fast_math;
 pub mod frame;

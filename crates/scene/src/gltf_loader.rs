@@ -40,15 +40,16 @@
 
 use crate::obj_loader::guard;
 use crate::{Camera, Instance, Light, Material, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
+use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
 use glimpse_core::{Image, Mat4, Quat, Vec2, Vec3, Vec4};
 use gltf::accessor::{DataType, Dimensions};
 use gltf::animation::{Interpolation, Property};
 use std::collections::{BTreeMap, HashMap};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let bytes = read_bounded(path, "glTF file", limit::MESH).map_err(|e| SceneError::io(path, e.reason()))?;
     guard(path, "glTF", || {
         let (doc, loader) = Loader::new(path, &bytes)?;
         loader.run(&doc)
@@ -131,10 +132,24 @@ impl<'a> Loader<'a> {
                 gltf::buffer::Source::Uri(uri) if !uri.starts_with("data:") => format!("buffer {} ('{uri}')", b.index()),
                 _ => format!("buffer {}", b.index()),
             };
-            let data = gltf::buffer::Data::from_source_and_blob(b.source(), Some(base), &mut blob).map_err(|e| match e {
-                gltf::Error::Io(e) => SceneError::io(path, format!("{what}: {e}")),
-                e => parse(&format!("{what}: {e}")),
-            })?;
+            // External files are read here, bounded (regular files under the mesh limit); the
+            // `gltf` importer would read a `/dev/zero` uri until memory runs out.
+            let external = match b.source() {
+                gltf::buffer::Source::Uri(uri) => uri_path(base, uri),
+                gltf::buffer::Source::Bin => None,
+            };
+            let data = match external {
+                Some(file) => {
+                    let mut bytes =
+                        read_bounded(&file, "glTF buffer", limit::MESH).map_err(|e| SceneError::io(path, format!("{what}: {e}")))?;
+                    bytes.resize(bytes.len().next_multiple_of(4), 0);
+                    gltf::buffer::Data(bytes)
+                }
+                None => gltf::buffer::Data::from_source_and_blob(b.source(), Some(base), &mut blob).map_err(|e| match e {
+                    gltf::Error::Io(e) => SceneError::io(path, format!("{what}: {e}")),
+                    e => parse(&format!("{what}: {e}")),
+                })?,
+            };
             if data.len() < b.length() {
                 return Err(parse(&format!("{what}: declares {} bytes but holds {}", b.length(), data.len())));
             }
@@ -330,10 +345,54 @@ impl<'a> Loader<'a> {
         {
             return Err(format!("accessor {}: byteStride is smaller than one element", a.index()));
         }
-        if let Some(sparse) = a.sparse()
-            && sparse.count() == 0
-        {
-            return Err(format!("accessor {}: sparse with count 0", a.index()));
+        // Every count against the bytes that back it, before the readers allocate.
+        let (index, count, elem) = (a.index(), a.count() as u64, a.size() as u64);
+        match a.view() {
+            Some(view) => {
+                let stride = view.stride().unwrap_or(a.size()) as u64;
+                let need = a.offset() as u64 + stride * (count - 1) + elem;
+                self.check_view(&view, need).map_err(|m| format!("accessor {index}: {count} elements {m}"))?;
+            }
+            None => {
+                // Zeros plus sparse values: at most as many bytes as the file's buffers hold (a
+                // 719-byte file must not ask for 2^31 elements).
+                let total: u64 = self.buffers.iter().map(|b| b.len() as u64).sum();
+                if count.saturating_mul(elem) > total {
+                    return Err(format!(
+                        "accessor {index} has no bufferView: {count} elements of {elem} bytes is more than the {total} bytes of the file's buffers"
+                    ));
+                }
+            }
+        }
+        if let Some(sparse) = a.sparse() {
+            let n = sparse.count() as u64;
+            if n == 0 || n > count {
+                return Err(format!("accessor {index}: sparse count {n} is 0 or more than the accessor's {count}"));
+            }
+            let (indices, values) = (sparse.indices(), sparse.values());
+            let index_bytes = match self.json["accessors"][index]["sparse"]["indices"]["componentType"].as_u64() {
+                Some(5121) => 1,
+                Some(5123) => 2,
+                Some(5125) => 4,
+                other => return Err(format!("accessor {index}: sparse index type {other:?} is not 5121, 5123 or 5125")),
+            };
+            self.check_view(&indices.view(), indices.offset() as u64 + n * index_bytes)
+                .map_err(|m| format!("accessor {index}: {n} sparse indices {m}"))?;
+            self.check_view(&values.view(), values.offset() as u64 + n * elem)
+                .map_err(|m| format!("accessor {index}: {n} sparse values {m}"))?;
+        }
+        Ok(())
+    }
+
+    /// A buffer view inside its buffer and at least `need` bytes long.
+    fn check_view(&self, view: &gltf::buffer::View, need: u64) -> Result<(), String> {
+        let buffer = self.buffers.get(view.buffer().index()).map_or(0, |b| b.len() as u64);
+        let (offset, length) = (view.offset() as u64, view.length() as u64);
+        if offset + length > buffer {
+            return Err(format!("lie in buffer view {} outside its buffer ({buffer} bytes)", view.index()));
+        }
+        if need > length {
+            return Err(format!("need {need} bytes, buffer view {} holds {length}", view.index()));
         }
         Ok(())
     }
@@ -527,6 +586,14 @@ impl<'a> Loader<'a> {
             }
         }
         let base = self.path.parent().unwrap_or(Path::new(""));
+        if let gltf::image::Source::Uri { uri, .. } = image.source()
+            && let Some(file) = uri_path(base, uri)
+            && let Err(e) = check_file(&file, "texture", limit::IMAGE)
+        {
+            self.warn(format!("{what} ('{uri}') not loaded ({e}); using the colour factor alone"));
+            self.textures.insert(image.index(), None);
+            return Ok(None);
+        }
         let id = match gltf::image::Data::from_source(image.source(), Some(base), &self.buffers) {
             Ok(data) => match linear_image(&data) {
                 Some(img) => {
@@ -593,6 +660,34 @@ impl<'a> Loader<'a> {
 
 /// gltf-json's validator indexes the accessors with each POSITION attribute unchecked, so an
 /// out-of-range one is caught here first.
+/// The file a buffer or image `uri` names, as the `gltf` importer resolves it (relative to the
+/// glTF's folder, percent-decoded; or `file:`), or `None` for `data:` and other schemes.
+fn uri_path(base: &Path, uri: &str) -> Option<PathBuf> {
+    if let Some(rest) = uri.strip_prefix("file://").or_else(|| uri.strip_prefix("file:")) {
+        return Some(PathBuf::from(rest));
+    }
+    if uri.contains(':') {
+        return None;
+    }
+    let bytes = uri.as_bytes();
+    let mut decoded = Vec::with_capacity(bytes.len());
+    let mut i = 0;
+    while i < bytes.len() {
+        let hex = |b: u8| (b as char).to_digit(16);
+        match (bytes[i], bytes.get(i + 1).copied().and_then(hex), bytes.get(i + 2).copied().and_then(hex)) {
+            (b'%', Some(h), Some(l)) => {
+                decoded.push((h * 16 + l) as u8);
+                i += 3;
+            }
+            (b, _, _) => {
+                decoded.push(b);
+                i += 1;
+            }
+        }
+    }
+    Some(base.join(String::from_utf8(decoded).ok()?))
+}
+
 fn check_positions(json: &gltf::json::Value) -> Result<(), String> {
     let accessors = json["accessors"].as_array().map_or(0, Vec::len);
     for (mi, mesh) in json["meshes"].as_array().into_iter().flatten().enumerate() {

@@ -34,6 +34,7 @@
 //!   panic on). NaN coordinates and degenerate triangles are left to [`crate::validate`].
 
 use crate::{Material, Mesh, Scene, SceneError};
+use glimpse_core::bounded_read::{limit, read_bounded};
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use std::cell::RefCell;
 use std::collections::{BTreeSet, HashMap};
@@ -41,7 +42,7 @@ use std::io::Cursor;
 use std::path::{Path, PathBuf};
 
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, e))?;
+    let bytes = read_bounded(path, "OBJ file", limit::MESH).map_err(|e| SceneError::io(path, e.reason()))?;
     // Lossy: a stray Latin-1 byte in a comment must not make the whole file unreadable.
     let text = String::from_utf8_lossy(&bytes);
     let stats = check_records(&text).map_err(|m| SceneError::parse(path, m))?;
@@ -128,8 +129,8 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 /// Runs third-party parsing code so that a panic inside it (a bug on input we did not foresee)
 /// becomes an error naming the file instead of taking the program down.
 pub(crate) fn guard<T>(path: &Path, what: &str, f: impl FnOnce() -> T) -> Result<T, SceneError> {
-    std::panic::catch_unwind(std::panic::AssertUnwindSafe(f))
-        .map_err(|_| SceneError::parse(path, format!("the {what} reader failed on this input (internal panic)")))
+    glimpse_core::catch_panic::catch(f)
+        .map_err(|m| SceneError::parse(path, format!("the {what} reader failed on this input (internal panic: {m})")))
 }
 
 /// The 1-based number of the last line that a reader which stopped at byte `pos` has read.
@@ -218,10 +219,11 @@ struct MtlProblems {
 /// naming the `.mtl` and its line. Texture paths are made relative to the `.mtl`'s folder here,
 /// where that folder is known.
 fn load_mtl(path: &Path, problems: &RefCell<MtlProblems>) -> tobj::MTLLoadResult {
-    let bytes = match std::fs::read(path) {
+    // Bounded: a regular file under the text limit (an `mtllib /dev/zero` is a warning, not a read).
+    let bytes = match read_bounded(path, "material library", limit::TEXT) {
         Ok(b) => b,
         Err(e) => {
-            problems.borrow_mut().warnings.push(format!("{}: {e}; using the default material", path.display()));
+            problems.borrow_mut().warnings.push(format!("{e}; using the default material"));
             return Err(tobj::LoadError::OpenFileFailed);
         }
     };

@@ -266,7 +266,8 @@ struct OrbitDef {
 }
 
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
-    let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, e))?;
+    let text = glimpse_core::bounded_read::read_text_bounded(path, "scene file", glimpse_core::bounded_read::limit::TEXT)
+        .map_err(|e| SceneError::io(path, e.reason()))?;
     let def: SceneDef = toml::from_str(&text).map_err(|e| SceneError::parse(path, one_line_toml_error(&text, &e)))?;
     Builder { toml: path, dir: path.parent().unwrap_or(Path::new("")), scene: Scene::default(), textures: TextureCache::default() }
         .build(def)
