@@ -16,6 +16,10 @@ use std::process::ExitCode;
 struct Cli {
     #[command(subcommand)]
     command: Command,
+    /// Memory budget, e.g. 8G or 512M: work estimated to need more is refused up front (default:
+    /// the machine's available memory).
+    #[arg(long, global = true, value_parser = glimpse_core::memory_budget::parse_bytes)]
+    max_memory: Option<u64>,
 }
 
 #[derive(Subcommand)]
@@ -41,6 +45,17 @@ fn main() -> ExitCode {
     exit::install_panic_hook();
     let cli = Cli::parse();
     exit::panic_if_asked();
+    glimpse_core::memory_budget::set_budget(cli.max_memory.unwrap_or(0));
+    let frame = match &cli.command {
+        Command::Render(a) => Some(a.size),
+        Command::Eval(a) => Some(a.size),
+        Command::Play(a) => Some(a.size),
+        _ => None,
+    };
+    if let Some(Err(e)) = frame.map(|(w, h)| glimpse_core::memory_budget::check_frame(w, h)) {
+        eprintln!("error: {e}");
+        return ExitCode::FAILURE;
+    }
     let result = match cli.command {
         Command::Demo(a) => eval_cmd::demo(a),
         Command::Render(a) => render_cmd::run(a),

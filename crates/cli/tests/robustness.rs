@@ -59,3 +59,19 @@ fn outputs_never_replace_devices_or_folders_and_leave_old_files() {
         .collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 }
+
+#[test]
+fn work_over_the_memory_budget_is_refused_up_front() {
+    let out = tmp("big.png");
+    let r = glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "16384x16384", "--max-memory", "1G", "-o", out.to_str().unwrap()]);
+    assert_one_error(&r, &["16384x16384", "41.0 GiB", "1.0 GiB", "--max-memory"]);
+    let toml = tmp("divisions.toml");
+    std::fs::write(&toml, "[[quad]]\ndivisions = [4096, 4096]\n").unwrap();
+    let r = render_to(out.to_str().unwrap(), &[]);
+    assert!(r.status.success());
+    let r =
+        glimpse(&["render", toml.to_str().unwrap(), "-t", "ao-exact", "--size", "8x8", "--max-memory", "1G", "-o", out.to_str().unwrap()]);
+    assert_one_error(&r, &["divisions.toml", "4096x4096 divisions", "1.0 GiB"]);
+    let r = glimpse(&["render", "cornell", "--max-memory", "lots", "-o", out.to_str().unwrap()]);
+    assert_eq!(r.status.code(), Some(2), "a malformed --max-memory is a usage error");
+}

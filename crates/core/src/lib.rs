@@ -12,6 +12,7 @@ pub mod distribution;
 pub mod fast_math;
 pub mod frame;
 pub mod image;
+pub mod memory_budget;
 pub mod ray;
 pub mod sampling;
 pub mod sh;

@@ -46,6 +46,15 @@ pub fn load(spec: &str) -> Result<Scene, SceneError> {
         }
         _ => builtin::build(spec)?,
     };
+    // The scene's meshes as the tracer will hold them (every instance, with its BVH), before
+    // anything builds on them.
+    let (vertices, triangles) = scene
+        .instances
+        .iter()
+        .filter_map(|i| scene.meshes.get(i.mesh as usize))
+        .fold((0u64, 0u64), |(v, t), m| (v + m.positions.len() as u64, t + m.indices.len() as u64));
+    glimpse_core::memory_budget::check_mesh(format!("scene {spec} ({triangles} triangles)"), vertices, triangles)
+        .map_err(|e| SceneError::Invalid { source_name: spec.to_owned(), message: e.to_string() })?;
     validate::validate(&mut scene, spec)?;
     Ok(scene)
 }

@@ -304,6 +304,9 @@ impl Builder<'_> {
             if !(1..=4096).contains(&nx) || !(1..=4096).contains(&nz) {
                 return Err(self.invalid(format!("{what}: divisions must lie in 1..=4096")));
             }
+            let (vertices, triangles) = ((nx as u64 + 1) * (nz as u64 + 1), 2 * nx as u64 * nz as u64);
+            glimpse_core::memory_budget::check_mesh(format!("{what} ({nx}x{nz} divisions)"), vertices, triangles)
+                .map_err(|e| self.invalid(e.to_string()))?;
             self.add_shape(&q.common(), &what, |mat| plane_mesh(&format!("quad {i}"), mat, size, [nx, nz]))?;
         }
         for (i, b) in def.boxes.iter().enumerate() {
@@ -316,6 +319,9 @@ impl Builder<'_> {
             if !(4..=4096).contains(&segments) {
                 return Err(self.invalid(format!("{what}: segments must lie in 4..=4096")));
             }
+            let (rings, segs) = (segments as u64 / 2, segments as u64);
+            glimpse_core::memory_budget::check_mesh(format!("{what} ({segments} segments)"), (rings + 1) * (segs + 1), 2 * rings * segs)
+                .map_err(|e| self.invalid(e.to_string()))?;
             let radius = s.radius.unwrap_or(1.0);
             self.add_shape(&s.common(), &what, |mat| {
                 let mut m = sphere_mesh(&format!("sphere {i}"), mat, segments / 2, segments);
@@ -373,7 +379,11 @@ impl Builder<'_> {
             }
             (None, None) => Quat::IDENTITY,
         };
-        Ok(Transform { translation: Vec3::from_array(translate.unwrap_or([0.0; 3])), rotation, scale: scale.map_or(Vec3::ONE, |s| s.0) })
+        let scale = scale.map_or(Vec3::ONE, |s| s.0);
+        if !scale.is_finite() || scale.cmpeq(Vec3::ZERO).any() {
+            return Err(self.invalid(format!("{what}: scale {scale} must be finite and non-zero in every axis")));
+        }
+        Ok(Transform { translation: Vec3::from_array(translate.unwrap_or([0.0; 3])), rotation, scale })
     }
 
     /// The shape's motion (placement, spin or keyframes) and vertex wave.
@@ -406,7 +416,7 @@ impl Builder<'_> {
                 let base = self.placement(c, what)?;
                 check_period(spin.period_s).map_err(|m| self.invalid(format!("{what}: spin {m}")))?;
                 let center = spin.center.map_or(base.w_axis.truncate(), Vec3::from_array);
-                let axis = Vec3::from_array(spin.axis.unwrap_or([0.0, 1.0, 0.0]));
+                let axis = check_axis(spin.axis).map_err(|m| self.invalid(format!("{what}: spin {m}")))?;
                 Motion::Orbit { base, center, axis, period_s: spin.period_s, phase: spin.phase.unwrap_or(0.0) }
             }
             (None, None) => Motion::Fixed(self.placement(c, what)?),
@@ -416,6 +426,13 @@ impl Builder<'_> {
                 check_period(w.period_s).map_err(|m| self.invalid(format!("{what}: wave {m}")))?;
                 if !(w.wavelength > 0.0 && w.wavelength.is_finite()) {
                     return Err(self.invalid(format!("{what}: wave wavelength must be a positive number")));
+                }
+                let reach = w.amplitude.abs() * Vec3::from_array(w.displacement.unwrap_or([0.0, 1.0, 0.0])).length();
+                if !reach.is_finite() || reach > MAX_WAVE_REACH {
+                    return Err(self.invalid(format!(
+                        "{what}: wave amplitude {:e} × |displacement| must be finite and at most {MAX_WAVE_REACH} (scene units)",
+                        w.amplitude
+                    )));
                 }
                 Some(Deformation::Wave {
                     amplitude: w.amplitude,
@@ -576,10 +593,11 @@ impl Builder<'_> {
         Ok(match &l.orbit {
             Some(o) => {
                 check_period(o.period_s).map_err(|m| self.invalid(format!("{what}: orbit {m}")))?;
+                let axis = check_axis(o.axis).map_err(|m| self.invalid(format!("{what}: orbit {m}")))?;
                 light.with_motion(Motion::Orbit {
                     base: Mat4::IDENTITY,
                     center: Vec3::from_array(o.center.unwrap_or([0.0; 3])),
-                    axis: Vec3::from_array(o.axis.unwrap_or([0.0, 1.0, 0.0])),
+                    axis,
                     period_s: o.period_s,
                     phase: o.phase.unwrap_or(0.0),
                 })
@@ -616,6 +634,16 @@ impl Builder<'_> {
         env.scale = scale;
         Ok(env)
     }
+}
+
+/// The farthest a wave may move a vertex: beyond this, positions lose the float precision the
+/// tracer's ray offsets rely on (and 1e38 overflows to infinity once multiplied).
+pub const MAX_WAVE_REACH: f32 = 1.0e4;
+
+/// An animation axis (default +y): finite and non-zero, normalized later by the motion.
+fn check_axis(axis: Option<[f32; 3]>) -> Result<Vec3, String> {
+    let a = Vec3::from_array(axis.unwrap_or([0.0, 1.0, 0.0]));
+    if a.is_finite() && a.length_squared() > 0.0 { Ok(a) } else { Err(format!("axis {a} must be a finite non-zero vector")) }
 }
 
 fn check_period(period_s: f32) -> Result<(), String> {

@@ -8,6 +8,9 @@
 use crate::{LightKind, Scene, SceneError};
 use glimpse_core::is_finite3;
 
+/// The widest vertical field of view a camera may have, in degrees.
+pub const MAX_FOV_DEGREES: f32 = 170.0;
+
 pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
     let invalid = |message: String| SceneError::Invalid { source_name: source.to_owned(), message };
 
@@ -131,8 +134,10 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if forward.length_squared() == 0.0 || forward.cross(cam.up).length_squared() == 0.0 {
             return Err(invalid("the camera's target equals its position, or its up vector is parallel to its view".into()));
         }
-        if !(cam.fov_y > 0.0 && cam.fov_y < std::f32::consts::PI) {
-            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, 180°)", cam.fov_y.to_degrees())));
+        // Beyond 170° a pinhole image stretches its edges by more than tan(85°) ≈ 11×: 179.99°
+        // is a typo or a unit mix-up, not a camera.
+        if !(cam.fov_y > 0.0 && cam.fov_y <= MAX_FOV_DEGREES.to_radians()) {
+            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, {MAX_FOV_DEGREES}°]", cam.fov_y.to_degrees())));
         }
     }
 

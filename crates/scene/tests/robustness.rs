@@ -124,3 +124,32 @@ fn uris_pointing_at_devices_are_refused_without_reading() {
     let e = load_err(&write(&dir, "env.toml", "[[box]]\n[environment]\nfile = \"zero.hdr\"\n"));
     assert!(e.contains("zero.hdr") && e.contains("not a regular file"), "{e}");
 }
+
+#[test]
+fn degenerate_animation_and_camera_values_are_errors() {
+    let dir = scratch("degenerate");
+    let cases = [
+        ("spin-axis.toml", "[[box]]\nspin = { axis = [0, 0, 0], period_s = 2 }\n", "spin axis"),
+        (
+            "orbit-axis.toml",
+            "[[box]]\n[[light]]\nkind = \"point\"\nposition = [0, 2, 0]\norbit = { axis = [0, 0, 0], period_s = 4 }\n",
+            "orbit axis",
+        ),
+        ("scale-key.toml", "[[box]]\nkeyframes = [{ time = 0 }, { time = 1, scale = 0 }]\n", "scale"),
+        ("scale.toml", "[[box]]\nscale = [1, 0, 1]\n", "non-zero"),
+        ("amplitude.toml", "[[quad]]\nwave = { amplitude = 1e38, wavelength = 0.1, period_s = 1 }\n", "amplitude"),
+        ("fov.toml", "[camera]\nposition = [0, 0, 3]\ntarget = [0, 0, 0]\nfov_y_degrees = 179.99\n[[box]]\n", "field of view"),
+    ];
+    for (name, text, needle) in cases {
+        let e = load_err(&write(&dir, name, text));
+        assert!(e.contains(name) && e.contains(needle), "{name}: '{needle}' not in: {e}");
+    }
+    // Their sound neighbours still load.
+    for text in [
+        "[[box]]\nspin = { axis = [0, 0, 2], period_s = 2 }\n",
+        "[[quad]]\nwave = { amplitude = 0.05, wavelength = 0.1, period_s = 1 }\n",
+        "[camera]\nposition = [0, 0, 3]\ntarget = [0, 0, 0]\nfov_y_degrees = 170\n[[box]]\n",
+    ] {
+        load(&write(&dir, "ok.toml", text)).unwrap();
+    }
+}
