@@ -36,7 +36,10 @@ const SPHERE_SEGMENTS: u32 = 256;
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let text = std::fs::read_to_string(path).map_err(|e| SceneError::io(path, format!("cannot read the scene: {e}")))?;
     let options = roxmltree::ParsingOptions { allow_dtd: true, ..Default::default() };
-    let doc = Document::parse_with_options(&text, options).map_err(|e| SceneError::parse(path, format!("XML: {e}")))?;
+    let doc = Document::parse_with_options(&text, options).map_err(|e| {
+        let pos = e.pos();
+        SceneError::parse(path, format!("line {}, column {}: XML: {e}", pos.row, pos.col))
+    })?;
     let mut loader = Loader {
         path,
         dir: path.parent().unwrap_or(Path::new("")).to_owned(),

@@ -40,7 +40,7 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     let mut reader = Reader::new(Cursor::new(bytes));
     let header = parser.read_header(&mut reader).map_err(|e| err(format!("header: {}", one_line(&e.to_string()))))?;
     let header_len = reader.get_ref().position() as usize;
-    check_counts(&header, bytes.len().saturating_sub(header_len)).map_err(err)?;
+    check_counts(&header, &bytes[..header_len], bytes.len().saturating_sub(header_len)).map_err(err)?;
     let vertex_def = header.elements.get("vertex").ok_or_else(|| err("the header declares no 'vertex' element".into()))?;
     for axis in ["x", "y", "z"] {
         if !vertex_def.properties.contains_key(axis) {
@@ -91,8 +91,9 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     Ok(mesh)
 }
 
-/// Errors when an element's count cannot fit in `payload_bytes`.
-fn check_counts(header: &Header, payload_bytes: usize) -> Result<(), String> {
+/// Errors when an element's count cannot fit in `payload_bytes`, naming the header line that
+/// declares it.
+fn check_counts(header: &Header, header_text: &[u8], payload_bytes: usize) -> Result<(), String> {
     let mut need: u128 = 0;
     for (name, def) in &header.elements {
         let per_element = match header.encoding {
@@ -101,8 +102,10 @@ fn check_counts(header: &Header, payload_bytes: usize) -> Result<(), String> {
         };
         need += def.count as u128 * per_element as u128;
         if need > payload_bytes as u128 {
+            let text = String::from_utf8_lossy(header_text);
+            let line = text.lines().position(|l| l.split_whitespace().take(2).eq(["element", name.as_str()])).map_or(0, |i| i + 1);
             return Err(format!(
-                "the header declares {} '{name}' elements, but only {payload_bytes} bytes follow it (truncated file or wrong count)",
+                "line {line}: element '{name}': the header declares {} '{name}' elements, but only {payload_bytes} bytes follow it (truncated file or wrong count)",
                 def.count
             ));
         }
