@@ -35,6 +35,9 @@ SCENES = {
     "lights": os.path.join(HERE, "scenes", "lights.xml"),
 }
 
+# Scenes outside their bounds for a known reason, reported without failing --check.
+KNOWN_MISSES = {}
+
 
 def mitsuba_render(path, res, spp, seed, out):
     import mitsuba as mi
@@ -147,6 +150,11 @@ def main():
     ap.add_argument("--work", default=os.path.join(ROOT, "target", "crosscheck"))
     ap.add_argument("--check", action="store_true", help="exit 1 when a scene is outside its bounds")
     ap.add_argument("--json", help="write the results here")
+    ap.add_argument(
+        "--known-misses",
+        default=",".join(KNOWN_MISSES),
+        help="scenes reported but not failing --check (a model glimpse lacks; see docs/references.md)",
+    )
     a = ap.parse_args()
     if not os.path.isdir(SHARED):
         print(f"skipped: {SHARED} (the shared scenes) is missing")
@@ -177,7 +185,9 @@ def main():
             f"{name:10} {r[0]:12.4f} {r[1]:7.4f} {r[2]:7.4f} {bound:7.4f} {s['relmse']:9.2e} {s['floor']:9.2e} "
             f"{s['relmse'] / s['floor']:7.2f}  {t1 - t0:5.1f}/{(t2 - t1) / 2:4.1f} {'ok' if ok else 'OUTSIDE'}"
         )
-        if not ok:
+        if not ok and name in a.known_misses.split(","):
+            print(f"{'':10} known miss: {KNOWN_MISSES.get(name, 'see docs/references.md')}")
+        elif not ok:
             failed.append(name)
     if a.json:
         tmp = a.json + ".tmp"

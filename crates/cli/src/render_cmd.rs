@@ -11,7 +11,7 @@ use std::time::Duration;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// A built-in scene (see `glimpse scenes`) or a .gltf, .glb, .obj or .toml file.
+    /// A built-in scene (see `glimpse scenes`) or a .gltf, .glb, .obj, .ply, .toml or Mitsuba 3 .xml file.
     pub scene: String,
     /// Technique id (see `glimpse techniques`).
     #[arg(short, long)]

@@ -934,8 +934,10 @@ fn rectangle_mesh(name: &str) -> Mesh {
 
 /// Resamples a Mitsuba equirectangular map (with its `to_world`) into glimpse's convention.
 /// Mitsuba looks a world direction d up at local v = to_world⁻¹·d, u = atan2(v.x, −v.z)/2π,
-/// v = acos(v.y)/π; glimpse's u has an extra half turn (see [`Environment::dir_to_uv`]). With
-/// an identity `to_world` and an even width this is an exact shift by half the width.
+/// v = acos(v.y)/π, its texel columns centred at (i + ½)/width but its rows at row/(height − 1)
+/// (checked against Mitsuba 3.9's `envmap.eval`); glimpse's u has an extra half turn (see
+/// [`Environment::dir_to_uv`]). With an identity `to_world` and an even width the columns are an
+/// exact shift by half the width; rows are resampled (bilinear), a blur below one texel.
 pub fn mitsuba_envmap(image: &Image, to_world: Mat4) -> Image {
     let inv = to_world.inverse();
     Image::from_fn(image.width, image.height, |x, y| {
@@ -943,7 +945,10 @@ pub fn mitsuba_envmap(image: &Image, to_world: Mat4) -> Image {
         let d = inv.transform_vector3(Environment::uv_to_dir(uv)).normalize();
         let u = d.x.atan2(-d.z) / TAU;
         let v = d.y.clamp(-1.0, 1.0).acos() / PI;
-        image.sample_bilinear(u - u.floor(), v, false)
+        // Mitsuba's rows sit at v = row / (height − 1) (the first at the zenith, the last at the
+        // nadir); glimpse's sampler puts them at (row + ½) / height.
+        let h = image.height as f32;
+        image.sample_bilinear(u - u.floor(), (v * (h - 1.0) + 0.5) / h, false)
     })
 }
 
