@@ -9,5 +9,9 @@ if [ ! -x "$venv/bin/python" ] || ! "$venv/bin/python" -c "import mitsuba, numpy
     python3 -m venv "$venv"
     "$venv/bin/pip" install --quiet "mitsuba==3.*" numpy
 fi
-cargo build --release --quiet --bin glimpse --manifest-path "$root/Cargo.toml"
-exec "$venv/bin/python" "$root/tools/crosscheck/crosscheck.py" "$@"
+# GLIMPSE=path uses that binary (CI: the one `cargo test` built) instead of a release build.
+if [ -z "${GLIMPSE:-}" ]; then
+    cargo build --release --quiet --bin glimpse --manifest-path "$root/Cargo.toml"
+    GLIMPSE="$root/target/release/glimpse"
+fi
+exec "$venv/bin/python" "$root/tools/crosscheck/crosscheck.py" --glimpse "$GLIMPSE" "$@"

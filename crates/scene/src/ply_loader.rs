@@ -11,7 +11,7 @@
 use crate::{Material, Mesh, Scene, SceneError};
 use glimpse_core::{Mat4, Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
-use ply_rs_bw::ply::{DefaultElement, ElementDef, Encoding, Header, Property, PropertyType, ScalarType};
+use ply_rs_bw::ply::{ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
 use std::io::Cursor;
 use std::path::Path;
 
@@ -36,14 +36,15 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     if !bytes.starts_with(b"ply") {
         return Err(err("line 1: not a PLY file (it must start with 'ply')".into()));
     }
-    let parser = Parser::<DefaultElement>::new();
+    let parser = Parser::<Element>::new();
     let mut reader = Reader::new(Cursor::new(bytes));
     let header = parser.read_header(&mut reader).map_err(|e| err(format!("header: {}", one_line(&e.to_string()))))?;
     let header_len = reader.get_ref().position() as usize;
     check_counts(&header, &bytes[..header_len], bytes.len().saturating_sub(header_len)).map_err(err)?;
     let vertex_def = header.elements.get("vertex").ok_or_else(|| err("the header declares no 'vertex' element".into()))?;
+    let has = |k: &str| vertex_def.properties.contains_key(k);
     for axis in ["x", "y", "z"] {
-        if !vertex_def.properties.contains_key(axis) {
+        if !has(axis) {
             return Err(err(format!("element 'vertex' has no '{axis}' property")));
         }
     }
@@ -52,28 +53,24 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
     let mut mesh = Mesh { name, material, ..Default::default() };
     let vertices = payload.get("vertex").map(Vec::as_slice).unwrap_or_default();
-    let has = |k: &str| vertex_def.properties.contains_key(k);
-    let uv_keys = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")].into_iter().find(|(u, v)| has(u) && has(v));
+    let has_uvs = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")].into_iter().any(|(u, v)| has(u) && has(v));
     let has_normals = has("nx") && has("ny") && has("nz");
-    let scalar = |e: &DefaultElement, k: &str, i: usize| {
-        e.get(k).and_then(Property::to_f32_lossy).ok_or_else(|| err(format!("vertex {i}: property '{k}' is not a number")))
-    };
-    for (i, v) in vertices.iter().enumerate() {
-        mesh.positions.push(Vec3::new(scalar(v, "x", i)?, scalar(v, "y", i)?, scalar(v, "z", i)?));
+    for v in vertices {
+        let [x, y, z, nx, ny, nz, u, w] = v.values;
+        mesh.positions.push(Vec3::new(x, y, z));
         if has_normals {
-            mesh.normals.push(Vec3::new(scalar(v, "nx", i)?, scalar(v, "ny", i)?, scalar(v, "nz", i)?));
+            mesh.normals.push(Vec3::new(nx, ny, nz));
         }
-        if let Some((u, w)) = uv_keys {
-            mesh.uvs.push(Vec2::new(scalar(v, u, i)?, scalar(v, w, i)?));
+        if has_uvs {
+            mesh.uvs.push(Vec2::new(u, w));
         }
     }
     let n = mesh.positions.len() as u32;
     for (f, face) in payload.get("face").map(Vec::as_slice).unwrap_or_default().iter().enumerate() {
-        let list = face
-            .get("vertex_indices")
-            .or_else(|| face.get("vertex_index"))
-            .ok_or_else(|| err(format!("face {f} has no 'vertex_indices' list")))?;
-        let idx = list.to_u32_list().ok_or_else(|| err(format!("face {f}: vertex indices must be a list of non-negative integers")))?;
+        let idx = match &face.indices {
+            Ok(idx) => idx,
+            Err(problem) => return Err(err(format!("face {f}: {problem}"))),
+        };
         if idx.len() < 3 {
             return Err(err(format!("face {f} has {} vertices (at least 3 are needed)", idx.len())));
         }
@@ -89,6 +86,46 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
         return Err(err("the file has no faces".into()));
     }
     Ok(mesh)
+}
+
+/// One element of any kind, kept compact (a map per vertex would cost ~10× the memory): the
+/// vertex slots glimpse reads and a face's index list; other properties are dropped as read.
+struct Element {
+    /// x, y, z, nx, ny, nz, u, v.
+    values: [f32; 8],
+    /// The face's vertex indices, or why they cannot be used.
+    indices: Result<Vec<u32>, &'static str>,
+}
+
+impl PropertyAccess for Element {
+    fn new() -> Self {
+        Self { values: [0.0; 8], indices: Err("no 'vertex_indices' list") }
+    }
+
+    fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
+        let slot = match name {
+            "x" => 0,
+            "y" => 1,
+            "z" => 2,
+            "nx" => 3,
+            "ny" => 4,
+            "nz" => 5,
+            "u" | "s" | "texture_u" => 6,
+            "v" | "t" | "texture_v" => 7,
+            "vertex_indices" | "vertex_index" => {
+                self.indices = property.to_u32_list().ok_or("vertex indices must be a list of non-negative integers");
+                return PropertyAccessResult::Set;
+            }
+            _ => return PropertyAccessResult::Ignored,
+        };
+        match property.to_f32_lossy() {
+            Some(v) => {
+                self.values[slot] = v;
+                PropertyAccessResult::Set
+            }
+            None => PropertyAccessResult::UnsupportedType,
+        }
+    }
 }
 
 /// Errors when an element's count cannot fit in `payload_bytes`, naming the header line that
