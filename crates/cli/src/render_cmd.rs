@@ -11,17 +11,17 @@ use std::time::Duration;
 
 #[derive(Args)]
 pub struct RenderArgs {
-    /// A built-in scene (see `glimpse scenes`) or a .gltf, .glb, .obj or .toml file.
+    /// A built-in scene (see `glimpse scenes`) or a .gltf, .glb, .obj, .ply, .toml or Mitsuba 3 .xml file.
     pub scene: String,
     /// Technique id (see `glimpse techniques`).
     #[arg(short, long)]
     pub technique: String,
-    /// Image size, WIDTHxHEIGHT.
-    #[arg(long, default_value = "512x512", value_parser = parse_size)]
-    pub size: (u32, u32),
-    /// Samples per pixel.
-    #[arg(long, default_value_t = 16, value_parser = parse_spp)]
-    pub spp: u32,
+    /// Image size, WIDTHxHEIGHT [default: the scene file's (Mitsuba film), else 512x512].
+    #[arg(long, value_parser = parse_size)]
+    pub size: Option<(u32, u32)>,
+    /// Samples per pixel [default: the scene file's (Mitsuba sampler), else 16].
+    #[arg(long, value_parser = parse_spp)]
+    pub spp: Option<u32>,
     /// Scene time in seconds (for animated scenes).
     #[arg(long, default_value_t = 0.0, value_parser = parse_time)]
     pub time: f32,
@@ -45,14 +45,24 @@ pub fn run(a: RenderArgs) -> Result<()> {
     }
     let registry = glimpse_eval::registry();
     registry.get(&a.technique)?;
-    let params = Params::parse(&a.set)?;
     let scene = glimpse_scene::load(&a.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
-    let settings = Settings { spp: a.spp, seed: a.seed };
+    // A scene file's own settings (Mitsuba's film, sampler, integrator) stand in for flags not given.
+    let hints = &scene.render_hints;
+    let (width, height) = a.size.or(hints.size).unwrap_or((512, 512));
+    let spp = a.spp.or(hints.spp).unwrap_or(16);
+    let mut set = a.set.clone();
+    if let Some(depth) = hints.max_depth
+        && a.technique == "pt"
+        && !set.iter().any(|s| s.starts_with("max_depth="))
+    {
+        set.push(format!("max_depth={depth}"));
+    }
+    let params = Params::parse(&set)?;
+    let settings = Settings { spp, seed: a.seed };
     let mut technique = registry.create(&a.technique, &scene, &settings, &params)?;
-    let (width, height) = a.size;
 
     let total = Stopwatch::start();
     let ctx = FrameContext::new(&scene, a.time, width, height);
@@ -68,7 +78,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
         "{} on {} at {width}x{height}, {} spp: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {:.2} Mrays/s -> {}",
         a.technique,
         a.scene,
-        a.spp,
+        spp,
         prepare.total_ms(),
         render.total_ms(),
         total_ms,

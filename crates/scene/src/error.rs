@@ -13,7 +13,7 @@ pub enum SceneError {
     Unsupported { path: PathBuf, message: String },
     #[error("{source_name}: invalid scene: {message}")]
     Invalid { source_name: String, message: String },
-    #[error("unknown scene '{name}' (built-in scenes: {known}; or give a .gltf, .glb, .obj or .toml path)")]
+    #[error("unknown scene '{name}' (built-in scenes: {known}; or give a .gltf, .glb, .obj, .ply, .toml or Mitsuba 3 .xml path)")]
     UnknownScene { name: String, known: String },
 }
 

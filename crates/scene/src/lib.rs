@@ -4,7 +4,7 @@
 //! tracer and the techniques consume.
 //!
 //! Loaders: glTF 2.0 ([`gltf_loader`]), OBJ+MTL ([`obj_loader`]), `scene.toml`
-//! ([`toml_loader`]), and the built-in scenes ([`builtin`]). [`load`] picks by name or extension.
+//! ([`toml_loader`]), Mitsuba 3 XML ([`mitsuba_loader`]), PLY ([`ply_loader`]), and the built-in scenes ([`builtin`]). [`load`] picks by name or extension.
 
 pub mod animation;
 pub mod builtin;
@@ -14,8 +14,11 @@ pub mod error;
 pub mod frame;
 pub mod gltf_loader;
 pub mod light;
+pub mod mitsuba_loader;
 pub mod model;
 pub mod obj_loader;
+pub mod ply_loader;
+pub mod render_hints;
 pub mod toml_loader;
 pub mod validate;
 
@@ -26,11 +29,12 @@ pub use error::SceneError;
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
 pub use light::{Light, LightKind};
 pub use model::{Instance, Material, Mesh, Scene};
+pub use render_hints::RenderHints;
 
 use std::path::Path;
 
 /// Loads a scene by built-in name (see [`builtin::NAMES`]) or by file path (`.gltf`, `.glb`,
-/// `.obj`, `.toml`), then validates it (see [`validate`]).
+/// `.obj`, `.ply`, `.toml`, Mitsuba 3 `.xml`), then validates it (see [`validate`]).
 pub fn load(spec: &str) -> Result<Scene, SceneError> {
     let path = Path::new(spec);
     let ext = path.extension().and_then(|e| e.to_str()).map(|e| e.to_ascii_lowercase());
@@ -38,10 +42,12 @@ pub fn load(spec: &str) -> Result<Scene, SceneError> {
         Some("gltf" | "glb") => gltf_loader::load(path)?,
         Some("obj") => obj_loader::load(path)?,
         Some("toml") => toml_loader::load(path)?,
+        Some("xml") => mitsuba_loader::load(path)?,
+        Some("ply") => ply_loader::load(path)?,
         Some(other) if !builtin::NAMES.contains(&spec) => {
             return Err(SceneError::Unsupported {
                 path: path.to_owned(),
-                message: format!("unknown scene file extension '.{other}' (use .gltf, .glb, .obj or .toml)"),
+                message: format!("unknown scene file extension '.{other}' (use .gltf, .glb, .obj, .ply, .toml or a Mitsuba 3 .xml)"),
             });
         }
         _ => builtin::build(spec)?,

@@ -115,6 +115,8 @@ pub struct Scene {
     /// Problems that did not stop loading (degenerate triangles removed, ignored features),
     /// one line each naming the file; the command line prints them.
     pub warnings: Vec<String>,
+    /// Size, spp, depth and filter the file asks for (Mitsuba scenes); empty for other formats.
+    pub render_hints: crate::RenderHints,
 }
 
 impl Scene {

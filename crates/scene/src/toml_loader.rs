@@ -651,7 +651,7 @@ fn check_period(period_s: f32) -> Result<(), String> {
 }
 
 /// Adds "(referenced by …)" to an error of a referenced file, keeping its variant and its path.
-fn referenced_by(e: SceneError, by: &str) -> SceneError {
+pub(crate) fn referenced_by(e: SceneError, by: &str) -> SceneError {
     let note = |m: String| format!("{m} (referenced by {by})");
     match e {
         SceneError::Io { path, message } => SceneError::Io { path, message: note(message) },
