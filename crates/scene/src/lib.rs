@@ -16,6 +16,7 @@ pub mod gltf_loader;
 pub mod light;
 pub mod model;
 pub mod obj_loader;
+pub mod procedural;
 pub mod toml_loader;
 pub mod validate;
 
