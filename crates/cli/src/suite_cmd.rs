@@ -21,6 +21,9 @@ pub struct SuiteArgs {
     /// Do not read or write the reference cache.
     #[arg(long)]
     pub no_cache: bool,
+    /// Only these suite scenes (file stems), in this order.
+    #[arg(long, value_delimiter = ',')]
+    pub only: Vec<String>,
 }
 
 pub fn run(a: SuiteArgs) -> Result<()> {
@@ -29,6 +32,7 @@ pub fn run(a: SuiteArgs) -> Result<()> {
         out_dir: a.output,
         quick: a.quick,
         cache: if a.no_cache { Cache::disabled() } else { Cache { dir: Cache::default_dir() } },
+        only: a.only,
     };
     let r = run_suite(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?;
     print!("{}", markdown_table(&r));

@@ -36,6 +36,8 @@ pub struct SuiteConfig {
     /// Small sizes and fewer samples: finishes in minutes on two cores.
     pub quick: bool,
     pub cache: Cache,
+    /// Only these scenes (by file stem), in this order; empty: all, sorted by name.
+    pub only: Vec<String>,
 }
 
 impl SuiteConfig {
@@ -258,7 +260,17 @@ fn cross_checks(cells: &mut [Cell]) {
 
 pub fn run_suite(cfg: &SuiteConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<SuiteResults> {
     let started = Instant::now();
-    let scenes = discover(&cfg.scenes_dir)?;
+    let mut scenes = discover(&cfg.scenes_dir)?;
+    if !cfg.only.is_empty() {
+        if let Some(unknown) = cfg.only.iter().find(|n| !scenes.iter().any(|s| &s.name == *n)) {
+            bail!(
+                "{}: no suite scene '{unknown}' (have: {})",
+                cfg.scenes_dir.display(),
+                scenes.iter().map(|s| s.name.as_str()).collect::<Vec<_>>().join(", ")
+            );
+        }
+        scenes = cfg.only.iter().filter_map(|n| scenes.iter().find(|s| &s.name == n).cloned()).collect();
+    }
     std::fs::create_dir_all(&cfg.out_dir).with_context(|| format!("{}: cannot create the output directory", cfg.out_dir.display()))?;
     let (width, height, spp, ref_spp) = cfg.sizes();
     let mut cells = Vec::new();
