@@ -36,6 +36,10 @@ pub struct EvalArgs {
     pub no_cache: bool,
     #[arg(long, default_value_t = 0.0, allow_negative_numbers = true)]
     pub exposure: f32,
+    /// Frames per technique (frame indices 0..N at the same time): temporal techniques (ROMA,
+    /// light cuts) are judged after N frames of accumulation; timings are per frame.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub frames: u32,
     /// Output directory (report.html, results.json, images).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -64,6 +68,8 @@ pub fn run(a: EvalArgs) -> Result<()> {
         cache: if a.no_cache { Cache::disabled() } else { Cache { dir: Cache::default_dir() } },
         sweep: !a.no_sweep,
         exposure: a.exposure,
+        frames: a.frames,
+        time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
 }
@@ -88,6 +94,8 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         cache: Cache { dir: Cache::default_dir() },
         sweep: true,
         exposure: 0.0,
+        frames: 1,
+        time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
 }

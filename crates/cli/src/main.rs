@@ -7,6 +7,7 @@ mod eval_cmd;
 mod exit;
 mod play_cmd;
 mod render_cmd;
+mod suite_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -35,6 +36,8 @@ enum Command {
     Bench(bench_cmd::BenchCommand),
     /// Render an animation frame by frame with per-frame stage timings.
     Play(play_cmd::PlayArgs),
+    /// Every approximate technique on every suite scene (scenes/suite) at its defaults: one report.
+    Suite(suite_cmd::SuiteArgs),
     /// List the built-in scenes.
     Scenes,
     /// List the techniques and the reference each is compared with.
@@ -62,6 +65,7 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval_cmd::run(a),
         Command::Bench(c) => bench_cmd::run(c),
         Command::Play(a) => play_cmd::run(a),
+        Command::Suite(a) => suite_cmd::run(a),
         Command::Scenes => {
             for name in glimpse_scene::builtin::NAMES {
                 println!("{name:<18} {}", glimpse_scene::builtin::describe(name));

@@ -40,6 +40,13 @@ pub struct EvalConfig {
     /// Also run each technique at fewer samples for the error-versus-time plot.
     pub sweep: bool,
     pub exposure: f32,
+    /// Frames rendered per technique (`eval --frames N`), with frame indices 0..N on the same
+    /// time: temporal techniques (ROMA, light cuts) are judged after N frames of accumulation, as
+    /// they are used. See [`render_frames`].
+    pub frames: u32,
+    /// Also time each reference at the technique's own `spp` and seed (not cached), for the
+    /// speed-up over the exact reference on the same GBuffer (`Run::reference_ms`).
+    pub time_reference: bool,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -63,6 +70,10 @@ pub struct Run {
     pub images: BTreeMap<String, String>,
     pub sweep: Vec<SweepPoint>,
     pub reference_cached: bool,
+    /// Frames accumulated (1 for a single image).
+    pub frames: u32,
+    /// The reference's prepare + render time at this run's spp and seed, when timed.
+    pub reference_ms: Option<f64>,
 }
 
 /// A technique not run because the scene lacks what it needs.
@@ -98,6 +109,34 @@ pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &
     let mut image = ctx.image();
     let render = technique.render(ctx, gbuffer, &mut image)?;
     Ok(Rendered { image, prepare, render })
+}
+
+/// `frames` frames of the same (static) time with frame indices 0..frames, as a renderer uses a
+/// temporal technique. A technique that blends its own history (it times an `accumulate` stage,
+/// as ROMA does) is judged by its last image; for any other technique the frames are averaged
+/// here (the accumulation a renderer would apply). The stats are the last frame's: the steady
+/// per-frame cost.
+pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuffer: &GBuffer, frames: u32) -> Result<Rendered> {
+    let mut sum: Option<Image> = None;
+    let mut last = None;
+    for i in 0..frames.max(1) {
+        ctx.frame_index = i;
+        let r = render_once(technique, ctx, gbuffer);
+        ctx.frame_index = 0;
+        let r = r?;
+        let self_accumulating = r.render.stages.iter().any(|(stage, _)| stage == "accumulate");
+        if !self_accumulating {
+            let total = sum.get_or_insert_with(|| Image::new(r.image.width, r.image.height));
+            total.pixels.iter_mut().zip(&r.image.pixels).for_each(|(t, p)| *t += *p);
+        }
+        last = Some(r);
+    }
+    let mut r = last.expect("at least one frame is rendered");
+    if let Some(total) = sum {
+        let n = frames.max(1) as f32;
+        r.image.pixels = total.pixels.into_iter().map(|p| p / n).collect();
+    }
+    Ok(r)
 }
 
 /// File-name-safe form of a technique id.
@@ -139,7 +178,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     std::fs::create_dir_all(&cfg.out_dir).with_context(|| format!("{}: cannot create the output directory", cfg.out_dir.display()))?;
 
     let sw = Stopwatch::start();
-    let ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
+    let mut ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
     let gbuffer = ctx.gbuffer();
     let gbuffer_ms = sw.ms();
     let tone = ToneMap { exposure: cfg.exposure };
@@ -193,8 +232,16 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         log(&format!("running {id}"));
         let params = Params::parse(&cfg.params)?;
         let mut technique = (info.create)(&scene, &settings, &params)?;
-        let r = render_once(technique.as_mut(), &ctx, &gbuffer)?;
+        let r = render_frames(technique.as_mut(), &mut ctx, &gbuffer, cfg.frames)?;
+        let faults = crate::suite::PixelFaults::count(&r.image, reference);
         let metrics = Metrics::compute(&r.image, reference)?;
+        let reference_ms = if cfg.time_reference && info.reference.is_some() {
+            let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
+            let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
+            Some(t.prepare.total_ms() + t.render.total_ms())
+        } else {
+            None
+        };
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());
         ms.insert("render".to_owned(), r.render.total_ms());
@@ -234,11 +281,14 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                 .into_iter()
                 .map(|(k, v)| (k.to_owned(), v))
                 .chain(r.prepare.metrics.iter().chain(&r.render.metrics).cloned())
+                .chain(faults.to_pairs().map(|(k, v)| (k.to_owned(), v)))
                 .collect(),
             params: params.effective(),
             images,
             sweep,
             reference_cached: *reference_cached,
+            frames: cfg.frames.max(1),
+            reference_ms,
         });
     }
 

@@ -8,6 +8,7 @@ pub mod experiment;
 pub mod play;
 pub mod plot;
 pub mod report;
+pub mod suite;
 
 use glimpse_render::Registry;
 

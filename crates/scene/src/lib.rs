@@ -19,6 +19,7 @@ pub mod model;
 pub mod obj_loader;
 pub mod ply_loader;
 pub mod render_hints;
+pub mod procedural;
 pub mod toml_loader;
 pub mod validate;
 

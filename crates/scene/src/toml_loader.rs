@@ -25,6 +25,9 @@
 //! # matrix = [1,0,0,0, 0,1,0,0, 0,0,1,0, 0,0,0,1]  # instead of the three: 16 numbers, column-major (glTF)
 //! material = { base_color = [0.8, 0.8, 0.8], base_color_texture = "fur.png", roughness = 0.5, metallic = 0.0, emission = [0.0, 0.0, 0.0], clearcoat = 0.0 }
 //!                                    # overrides the given fields of every material of the file
+//! # material = { roughness = 0.3, texture = { checker = { cells = 8, colors = [[0.1, 0.1, 0.1], [0.9, 0.9, 0.9]] } } }
+//! #                                  # or texture = { noise = { cells = 8, octaves = 4, colors = [...], seed = 0 }, resolution = 512 }:
+//! #                                  # a procedural base-colour texture over the mesh's uvs (crate::procedural)
 //! spin = { axis = [0, 1, 0], period_s = 4.0, center = [0, 0, 0], phase = 0.0 }
 //!                                    # turns about the line through `center` (default: `translate`)
 //!                                    # along `axis` (default +y), once per period; phase in turns
@@ -116,6 +119,8 @@ struct SkyDef {
 struct MaterialDef {
     base_color: Option<[f32; 3]>,
     base_color_texture: Option<PathBuf>,
+    /// A procedural base-colour texture (`crate::procedural`), instead of `base_color_texture`.
+    texture: Option<crate::procedural::TextureDef>,
     roughness: Option<f32>,
     metallic: Option<f32>,
     emission: Option<[f32; 3]>,
@@ -448,7 +453,7 @@ impl Builder<'_> {
     }
 
     /// A material from defaults plus the given fields.
-    fn apply_material(&mut self, mat: &mut Material, def: &MaterialDef) {
+    fn apply_material(&mut self, mat: &mut Material, def: &MaterialDef) -> Result<(), SceneError> {
         if let Some(c) = def.base_color {
             mat.base_color = Vec3::from_array(c);
         }
@@ -467,13 +472,19 @@ impl Builder<'_> {
         if let Some(t) = &def.base_color_texture {
             mat.base_color_texture = self.textures.load(&self.dir.join(t), &mut self.scene, self.toml);
         }
+        if let Some(t) = &def.texture {
+            let image = crate::procedural::bake(t).map_err(|e| self.invalid(format!("{}: {e}", mat.name)))?;
+            self.scene.textures.push(image);
+            mat.base_color_texture = Some(self.scene.textures.len() as u32 - 1);
+        }
+        Ok(())
     }
 
     fn add_shape(&mut self, c: &Common, what: &str, make: impl FnOnce(u32) -> Mesh) -> Result<(), SceneError> {
         let (motion, wave) = self.animation(c, what)?;
         let mut mat = Material { name: what.to_owned(), ..Default::default() };
         if let Some(def) = c.material {
-            self.apply_material(&mut mat, def);
+            self.apply_material(&mut mat, def)?;
         }
         let id = self.scene.add_material(mat);
         let mut mesh = make(id);
@@ -510,7 +521,7 @@ impl Builder<'_> {
         for mut m in sub.materials {
             m.base_color_texture = m.base_color_texture.map(|t| t + tex_offset);
             if let Some(def) = material {
-                self.apply_material(&mut m, def);
+                self.apply_material(&mut m, def)?;
             }
             self.scene.materials.push(m);
         }

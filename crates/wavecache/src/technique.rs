@@ -133,6 +133,16 @@ pub struct Runtime<'a> {
     pub classes: Vec<Class>,
 }
 
+/// Per-texel albedo on a shared glossy lobe: the BRDF trees are tabulated once per material with
+/// its base-colour factor, so a textured pixel (base = texel × factor) scales the lobe by
+/// base / factor per channel (the texel). Exact for the diffuse part and, to Schlick's first order,
+/// a metal's F0; it also tints a textured dielectric's (white) specular part by the texel, a bias
+/// measured against `pt` in tests/textures.rs. A zero factor channel stays as tabulated (zero).
+fn texel_ratio(base: Vec3, factor: Vec3) -> Vec3 {
+    let r = |b: f32, f: f32| if f > 1e-6 { b / f } else { 1.0 };
+    Vec3::new(r(base.x, factor.x), r(base.y, factor.y), r(base.z, factor.z))
+}
+
 /// A surface to shade.
 #[derive(Clone, Copy, Debug)]
 pub struct ShadePoint {
@@ -235,6 +245,7 @@ impl<'a> Runtime<'a> {
                     }
                 };
                 self.glossy(s.material, wo_local, p.payload)
+                    * texel_ratio(s.base, self.frame.scene.materials[s.material as usize].base_color)
             }
         }
     }
