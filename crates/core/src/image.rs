@@ -108,12 +108,16 @@ impl Image {
         }
         // A regular file under the image limit (not /dev/zero, not a FIFO).
         crate::bounded_read::check_file(path, "image", crate::bounded_read::limit::IMAGE).map_err(|e| io(e.reason()))?;
-        let dynamic = ::image::ImageReader::open(path)
-            .map_err(|e| io(e.to_string()))?
-            .with_guessed_format()
-            .map_err(|e| io(e.to_string()))?
-            .decode()
-            .map_err(|e| io(e.to_string()))?;
+        // The decoders are third-party code: a panic on a crafted file is an error naming it.
+        let decoded = crate::catch_panic::catch(|| {
+            ::image::ImageReader::open(path)
+                .map_err(|e| e.to_string())?
+                .with_guessed_format()
+                .map_err(|e| e.to_string())?
+                .decode()
+                .map_err(|e| e.to_string())
+        });
+        let dynamic = decoded.map_err(|m| io(format!("the image decoder failed on this file (internal panic: {m})")))?.map_err(io)?;
         let srgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg");
         let rgb = dynamic.into_rgb32f();
         let (width, height) = rgb.dimensions();

@@ -13,6 +13,7 @@ pub mod fast_math;
 pub mod frame;
 pub mod image;
 pub mod memory_budget;
+pub mod mutate;
 pub mod ray;
 pub mod sampling;
 pub mod sh;
