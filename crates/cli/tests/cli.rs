@@ -227,3 +227,36 @@ fn play_prints_per_frame_timings_and_writes_frames() {
     assert!(stdout.contains("mean over 3 frames"));
     assert!(dir.join("frame-0002.png").exists());
 }
+
+#[test]
+fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_line() {
+    let scene = write(
+        "hints.xml",
+        r#"<scene version="3.0.0">
+    <integrator type="path"><integer name="max_depth" value="3"/></integrator>
+    <sensor type="perspective">
+        <float name="fov" value="45"/>
+        <transform name="to_world"><lookat origin="0, 0, 5" target="0, 0, 0" up="0, 1, 0"/></transform>
+        <sampler type="independent"><integer name="sample_count" value="2"/></sampler>
+        <film type="hdrfilm"><integer name="width" value="12"/><integer name="height" value="8"/></film>
+    </sensor>
+    <shape type="sphere"><emitter type="area"><rgb name="radiance" value="1"/></emitter></shape>
+    <shape type="rectangle"><transform name="to_world"><translate z="-1"/><scale value="3"/></transform></shape>
+</scene>
+"#,
+    );
+    let out_png = tmp("hints.png");
+    let out = glimpse(&["render", scene.to_str().unwrap(), "-t", "pt", "-o", out_png.to_str().unwrap()]);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success());
+    assert!(stdout.contains("at 12x8, 2 spp"), "the film's size and the sampler's count: {stdout}");
+    // max_depth 3 in Mitsuba is glimpse's 2; a contradicting --set wins over the file.
+    let out =
+        glimpse(&["render", scene.to_str().unwrap(), "-t", "pt", "--size", "4x4", "--set", "max_depth=1", "-o", out_png.to_str().unwrap()]);
+    assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("at 4x4, 2 spp"));
+
+    let bad = write("bad.xml", "<scene version=\"3.0.0\">\n<shape type=\"disk\"/>\n</scene>\n");
+    let out = glimpse(&["render", bad.to_str().unwrap(), "-t", "pt", "-o", out_png.to_str().unwrap()]);
+    assert_error(&out, &["bad.xml", "line 2", "<shape type='disk'>"]);
+}

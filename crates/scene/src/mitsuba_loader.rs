@@ -29,7 +29,8 @@ use std::collections::HashMap;
 use std::f32::consts::{PI, TAU};
 use std::path::{Path, PathBuf};
 
-/// Segments around a tessellated `sphere` (rings are half): fine enough that a mirror or glass
+/// Segments around a tessellated `sphere` (rings are half; its uvs are glimpse's sphere's, not
+/// Mitsuba's, and so are the `cube`'s): fine enough that a mirror or glass
 /// sphere's silhouette and reflections match the analytic sphere within a pixel at 512².
 const SPHERE_SEGMENTS: u32 = 256;
 
@@ -920,13 +921,13 @@ fn transform_mesh(mesh: &mut Mesh, m: Mat4) {
     mesh.normals.iter_mut().for_each(|n| *n = normal.transform_vector3(*n).normalize_or_zero());
 }
 
-/// Mitsuba's `rectangle`: [−1, 1]² in the z = 0 plane, facing +z.
+/// Mitsuba's `rectangle`: [−1, 1]² in the z = 0 plane, facing +z, uv = (p + 1)/2 as Mitsuba's.
 fn rectangle_mesh(name: &str) -> Mesh {
     Mesh {
         name: name.into(),
         positions: vec![Vec3::new(-1.0, -1.0, 0.0), Vec3::new(1.0, -1.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(-1.0, 1.0, 0.0)],
         normals: vec![Vec3::Z; 4],
-        uvs: vec![Vec2::new(0.0, 1.0), Vec2::new(1.0, 1.0), Vec2::new(1.0, 0.0), Vec2::new(0.0, 0.0)],
+        uvs: vec![Vec2::new(0.0, 0.0), Vec2::new(1.0, 0.0), Vec2::new(1.0, 1.0), Vec2::new(0.0, 1.0)],
         indices: vec![[0, 1, 2], [0, 2, 3]],
         ..Default::default()
     }
