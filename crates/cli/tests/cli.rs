@@ -260,3 +260,58 @@ fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_
     let out = glimpse(&["render", bad.to_str().unwrap(), "-t", "pt", "-o", out_png.to_str().unwrap()]);
     assert_error(&out, &["bad.xml", "line 2", "<shape type='disk'>"]);
 }
+
+/// `eval --frames N`: a temporal technique judged after N frames has a lower error than after one
+/// (ROMA blends its frames; the count is in results.json).
+#[test]
+fn eval_frames_accumulates_temporal_techniques() {
+    let rmse = |frames: &str| {
+        let dir = tmp(&format!("frames-{frames}"));
+        let o = glimpse(&[
+            "eval",
+            "cornell",
+            "-t",
+            "ao-roma",
+            "--size",
+            "24x24",
+            "--spp",
+            "1",
+            "--ref-spp",
+            "32",
+            "--no-sweep",
+            "--no-cache",
+            "--frames",
+            frames,
+            "-o",
+            dir.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.join("results.json")).unwrap()).unwrap();
+        assert_eq!(json["runs"][0]["frames"].as_u64(), Some(frames.parse().unwrap()));
+        json["runs"][0]["metrics"]["rmse"].as_f64().unwrap()
+    };
+    let (one, eight) = (rmse("1"), rmse("8"));
+    println!("ao-roma RMSE after 1 frame {one:.4}, after 8 frames {eight:.4}");
+    assert!(eight < one * 0.8, "accumulating 8 frames must lower the error: {one} -> {eight}");
+    assert_error(&glimpse(&["eval", "cornell", "--frames", "0", "-o", tmp("f0").to_str().unwrap()]), &["0"]);
+}
+
+/// `glimpse suite`: a scene naming a missing file is skipped with the reason; an unknown `--only`
+/// name is an error naming it.
+#[test]
+fn suite_skips_scenes_with_missing_files_and_rejects_unknown_names() {
+    let scenes = tmp("suite-scenes");
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::write(scenes.join("gone.toml"), "# Needs a mesh that is not there.\n[[mesh]]\nfile = \"nowhere/missing.obj\"\n").unwrap();
+    let out = tmp("suite-out");
+    let o = glimpse(&["suite", "--quick", "--scenes", scenes.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    println!("{stderr}");
+    assert!(o.status.success(), "{stderr}");
+    assert!(stderr.contains("skipped: suite scene gone") && stderr.contains("missing.obj is missing"));
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(json["cells"].as_array().map(Vec::len), Some(0));
+    assert!(out.join("report.html").exists());
+    let o = glimpse(&["suite", "--scenes", scenes.to_str().unwrap(), "--only", "nope", "-o", out.to_str().unwrap()]);
+    assert_error(&o, &["nope", "gone"]);
+}
