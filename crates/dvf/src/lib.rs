@@ -77,7 +77,9 @@ pub struct DvfParams {
     pub atomics: Atomics,
     /// Trace rays whose pixel is in neither mask (`unknown=trace`; the paper: skip).
     pub trace_unknown: bool,
-    /// Trace both hemispheres of every sample (`sides=both`; the paper: front only).
+    /// Trace both hemispheres of every sample (`sides=both`, our default so double-sided
+    /// surfaces, seen from their back, are not treated as open; the paper, `profile=paper`:
+    /// front only).
     pub both_sides: bool,
 }
 
@@ -96,7 +98,7 @@ impl Default for DvfParams {
             rotate_about_normal: false,
             unshadowed: Unshadowed::Sh,
             atomics: Atomics::PerSample,
-            both_sides: false,
+            both_sides: true,
             trace_unknown: false,
         }
     }
@@ -105,7 +107,19 @@ impl Default for DvfParams {
 impl DvfParams {
     /// Reads every key (names shared with `env-exact` where they mean the same: `rays`,
     /// `rotation`), with `self` as the defaults.
+    ///
+    /// `profile=paper` starts from the paper's exact settings ([`DvfParams::paper`]).
     pub fn read(self, p: &Params) -> Result<Self, ParamError> {
+        let base = if p.choice("profile", "default", &["default", "paper"])? == "paper" { Self::paper() } else { self };
+        base.read_keys(p)
+    }
+
+    /// The paper's settings: as [`Default`] but front hemispheres only (`sides=front`).
+    pub fn paper() -> Self {
+        Self { both_sides: false, ..Self::default() }
+    }
+
+    fn read_keys(self, p: &Params) -> Result<Self, ParamError> {
         let octahedral = p.u32("octahedral", self.octahedral, 1, grid::MAX_RESOLUTION)?;
         Ok(Self {
             rays: p.u32("rays", self.rays, 1, 1 << 16)?,
@@ -124,7 +138,7 @@ impl DvfParams {
             rotate_about_normal: p.choice("rotation", "cp", &["cp", "normal"])? == "normal",
             unshadowed: if p.choice("unshadowed", "sh", &["sh", "rays"])? == "rays" { Unshadowed::Rays } else { Unshadowed::Sh },
             atomics: if p.choice("atomics", "sample", &["sample", "ray"])? == "ray" { Atomics::PerRay } else { Atomics::PerSample },
-            both_sides: p.choice("sides", "front", &["front", "both"])? == "both",
+            both_sides: p.choice("sides", if self.both_sides { "both" } else { "front" }, &["front", "both"])? == "both",
             trace_unknown: p.choice("unknown", "skip", &["skip", "trace"])? == "trace",
         })
     }

@@ -44,7 +44,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=sh|rays sides=front|both build_rays",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=sh|rays sides=both|front build_rays; profile=paper (sides=front)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))

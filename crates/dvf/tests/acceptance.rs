@@ -266,7 +266,7 @@ fn check_07_octahedral_pixels() {
 fn check_08_atomic_or_is_order_independent() {
     let scene = courtyard();
     let ctx = FrameContext::new(&scene, 0.0, 16, 16);
-    let p = DvfParams { points: 3000, rays: 16, grid: 8, ..DvfParams::default() };
+    let p = DvfParams { points: 3000, rays: 16, grid: 8, ..DvfParams::paper() };
     let inp = inputs(&ctx, &p);
     let grid = Grid::from_bounds(ctx.frame.bounds, p.grid);
     let s = settings(&p, 5);
@@ -381,7 +381,7 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
     let (mut exact_labels, mut checked) = ([0usize; 2], 0);
     let mut worst = 0.0f32;
     for unshadowed in [Unshadowed::Rays] {
-        let p = DvfParams { points: 4000, rays: 32, grid: 6, unshadowed, ..DvfParams::default() };
+        let p = DvfParams { points: 4000, rays: 32, grid: 6, unshadowed, ..DvfParams::paper() };
         let mut stats = Stats::default();
         let field = Dvf::build(&ctx.frame, &ctx.tracer, &p, 21, 0, None, &mut stats);
         let inp = inputs(&ctx, &p);
@@ -457,7 +457,8 @@ fn check_10e_enclosed_point_is_black() {
     let scene = scene_of(meshes, Environment::constant(Vec3::ONE), Camera::look_at(Vec3::ZERO, Vec3::new(0.0, -1.0, 0.2), Vec3::Y, 60.0));
     let ctx = FrameContext::new(&scene, 0.0, 16, 16);
     let g = ctx.gbuffer();
-    let mut t = dvf(2, &["rays=32", "points=600", "grid=1"]);
+    // The paper's one-sided faces: `sides=both` would (rightly) see the open outside.
+    let mut t = dvf(2, &["rays=32", "points=600", "grid=1", "sides=front"]);
     let (img, _, rend) = render(&mut t, &ctx, &g);
     let field = t.dvf.as_ref().unwrap();
     let (vis, _) = field.masks.snapshot();

@@ -61,6 +61,12 @@ impl<R: Row> Compressed<R> {
         ((both >> off) as u64 & ((1u64 << self.index_bits) - 1)) as usize
     }
 
+    /// The first packed-index word row `row`'s index lies in (what a prefetch should touch).
+    #[inline]
+    pub fn index_word(&self, row: usize) -> &u64 {
+        &self.indices[row * self.index_bits as usize / 64]
+    }
+
     #[inline]
     pub fn row(&self, row: usize) -> R {
         self.dictionary[self.index(row)]

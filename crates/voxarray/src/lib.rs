@@ -10,10 +10,12 @@
 //! 5. [`dynamic`]: Alg. 5 (rigid instances, one array per object type) and Alg. 6 (per-frame
 //!    rebuild by rotating the fragments of one rasterization).
 //! 6. [`technique`]: `lights-voxarray`, Alg. 4 (every light at every pixel, diffuse shading).
+//! 7. [`batch`]: Alg. 3 for batches of segments, lanes of 8 with their row loads overlapped.
 //!
 //! [`VoxArray`] holds an array at resolution 32, 64 or 128 (rows `u32`/`u64`/`u128`, chosen at
 //! run time), compressed or not, and implements [`Visibility`].
 
+pub mod batch;
 pub mod compress;
 pub mod directions;
 pub mod dynamic;
@@ -202,9 +204,16 @@ impl<R: Row> Array<R> {
     /// the normal (toward the light), then the biased segment query.
     #[inline]
     pub fn occluded_from_surface(&self, ps: &PunctualSample, normal: Vec3) -> bool {
+        let (a, b) = self.surface_segment(ps, normal);
+        self.occluded_segment(a, b)
+    }
+
+    /// The segment [`Self::occluded_from_surface`] queries: the start moved along the normal.
+    #[inline]
+    pub fn surface_segment(&self, ps: &PunctualSample, normal: Vec3) -> (Vec3, Vec3) {
         let (a, b) = self.segment(&ps.shadow, ps.t_max);
         let n = if normal.dot(ps.shadow.dir) < 0.0 { -normal } else { normal };
-        self.occluded_segment(a + n * (self.normal_offset_cells / self.grid.scale), b)
+        (a + n * (self.normal_offset_cells / self.grid.scale), b)
     }
 
     /// Bytes held (rows or dictionary + packed indices, plus the rotation table).
@@ -224,7 +233,7 @@ impl<R: Row> Array<R> {
     /// The segment a shadow ray covers, with an infinite `t_max` cut where the ray leaves the
     /// grid's cube.
     #[inline]
-    fn segment(&self, ray: &Ray, t_max: f32) -> (Vec3, Vec3) {
+    pub(crate) fn segment(&self, ray: &Ray, t_max: f32) -> (Vec3, Vec3) {
         let far = (ray.origin - self.grid.center).length() + 0.87 * self.grid.resolution as f32 / self.grid.scale;
         (ray.origin, ray.at(t_max.min(far)))
     }
@@ -242,6 +251,11 @@ impl<R: Row> Visibility for Array<R> {
             Some(x) => query::clip_hits_after_start_run(self.row(x.row_index(R::BITS)), &x),
             None => false,
         }
+    }
+
+    /// [`batch`]: lanes of 8 with their row loads in flight together; the same answers.
+    fn occluded_batch(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        self.occluded_rays(rays, out)
     }
 }
 
@@ -285,6 +299,15 @@ impl VoxArray {
         each!(self, a => a.occluded_from_surface(ps, normal))
     }
 
+    pub fn surface_segment(&self, ps: &PunctualSample, normal: Vec3) -> (Vec3, Vec3) {
+        each!(self, a => a.surface_segment(ps, normal))
+    }
+
+    /// Batched [`Self::occluded_segment`] (see [`batch`]): one dispatch per batch.
+    pub fn occluded_segments(&self, segments: &[(Vec3, Vec3)], out: &mut [bool]) {
+        each!(self, a => a.occluded_segments(segments, out))
+    }
+
     pub fn memory_bytes(&self) -> usize {
         each!(self, a => a.memory_bytes())
     }
@@ -313,5 +336,10 @@ impl VoxArray {
 impl Visibility for VoxArray {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         each!(self, a => a.occluded(ray, t_max))
+    }
+
+    /// One match on the resolution per batch, not per ray.
+    fn occluded_batch(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        each!(self, a => a.occluded_rays(rays, out))
     }
 }

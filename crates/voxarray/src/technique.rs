@@ -9,7 +9,8 @@
 //! meshes → Alg. 6 every frame, uncompressed.
 //! Order (ours, same result): pixels are shaded in tiles of [`PIXELS_PER_TILE`] consecutive
 //! pixels with the light loop outside, so one light's queries from neighbouring pixels read the
-//! same voxelization and nearby rows (cache locality; a GPU warp gets the same).
+//! same voxelization and nearby rows (cache locality; a GPU warp gets the same), and one light's
+//! queries over a tile go to the array as one batch ([`crate::batch`]: row loads overlapped).
 //! Shaded points move `normal_offset` cells along their normal before the query (see
 //! [`crate::query`] for the bias).
 
@@ -49,6 +50,23 @@ impl Structure {
         match self {
             Structure::Static(a) | Structure::Deforming(a) => a.occluded_from_surface(ps, normal),
             Structure::Instanced(a) => a.occluded_from_surface(ps, normal),
+        }
+    }
+
+    /// `out[k] = self.occluded_from_surface(&samples[k].0, samples[k].1)`; a single array
+    /// answers the batch with its row loads overlapped ([`crate::batch`]).
+    pub fn occluded_from_surfaces(&self, samples: &[(direct::PunctualSample, Vec3)], segments: &mut Vec<(Vec3, Vec3)>, out: &mut [bool]) {
+        match self {
+            Structure::Static(a) | Structure::Deforming(a) => {
+                segments.clear();
+                segments.extend(samples.iter().map(|(ps, n)| a.surface_segment(ps, *n)));
+                a.occluded_segments(segments, out);
+            }
+            Structure::Instanced(a) => {
+                for ((ps, n), o) in samples.iter().zip(out) {
+                    *o = a.occluded_from_surface(ps, *n);
+                }
+            }
         }
     }
 
@@ -171,7 +189,11 @@ impl Technique for LightsVoxArray {
                     let shading: Vec<Option<Shading>> = (0..px.len()).map(|k| Shading::from_gbuffer(gbuffer, base + k)).collect();
                     let mut e = vec![Vec3::ZERO; px.len()];
                     let mut rays = 0u64;
+                    // Reused per light: the tile's shadow queries, their segments and answers.
+                    let (mut samples, mut pixel, mut segments, mut occluded) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
                     for light in lights {
+                        samples.clear();
+                        pixel.clear();
                         for (k, s) in shading.iter().enumerate() {
                             let Some(s) = s else { continue };
                             let ps = direct::punctual(light, s.position, s.normal);
@@ -179,8 +201,15 @@ impl Technique for LightsVoxArray {
                             if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                                 continue;
                             }
-                            rays += 1;
-                            if !vis.occluded_from_surface(&ps, s.normal) {
+                            samples.push((ps, s.normal));
+                            pixel.push((k, cos));
+                        }
+                        occluded.clear();
+                        occluded.resize(samples.len(), false);
+                        vis.occluded_from_surfaces(&samples, &mut segments, &mut occluded);
+                        rays += samples.len() as u64;
+                        for (((ps, _), &(k, cos)), &o) in samples.iter().zip(&pixel).zip(&occluded) {
+                            if !o {
                                 e[k] += ps.irradiance * cos;
                             }
                         }
