@@ -50,7 +50,8 @@ fn main() -> ExitCode {
     exit::panic_if_asked();
     glimpse_core::memory_budget::set_budget(cli.max_memory.unwrap_or(0));
     let frame = match &cli.command {
-        Command::Render(a) => Some(a.size),
+        // A render without --size takes its size from the scene file; render_cmd checks it there.
+        Command::Render(a) => a.size,
         Command::Eval(a) => Some(a.size),
         Command::Play(a) => Some(a.size),
         _ => None,

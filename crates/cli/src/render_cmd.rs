@@ -52,6 +52,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     // A scene file's own settings (Mitsuba's film, sampler, integrator) stand in for flags not given.
     let hints = &scene.render_hints;
     let (width, height) = a.size.or(hints.size).unwrap_or((512, 512));
+    glimpse_core::memory_budget::check_frame(width, height)?;
     let spp = a.spp.or(hints.spp).unwrap_or(16);
     let mut set = a.set.clone();
     if let Some(depth) = hints.max_depth
