@@ -33,6 +33,17 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if !(0.0..=1.0).contains(&mat.clearcoat) {
             return Err(invalid(format!("material {mi} '{name}': clearcoat {} must lie in [0, 1]", mat.clearcoat)));
         }
+        match mat.model {
+            crate::MaterialModel::Conductor { eta, k }
+                if !is_finite3(eta) || !is_finite3(k) || eta.min_element() < 0.0 || k.min_element() < 0.0 =>
+            {
+                return Err(invalid(format!("material {mi} '{name}': conductor eta {eta} and k {k} must be finite and non-negative")));
+            }
+            crate::MaterialModel::Dielectric { ior } if !(ior.is_finite() && ior > 0.0) => {
+                return Err(invalid(format!("material {mi} '{name}': dielectric ior {ior} must be finite and positive")));
+            }
+            _ => {}
+        }
         if let Some(t) = mat.base_color_texture
             && t as usize >= scene.textures.len()
         {
@@ -131,8 +142,8 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if forward.length_squared() == 0.0 || forward.cross(cam.up).length_squared() == 0.0 {
             return Err(invalid("the camera's target equals its position, or its up vector is parallel to its view".into()));
         }
-        if !(cam.fov_y > 0.0 && cam.fov_y < std::f32::consts::PI) {
-            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, 180°)", cam.fov_y.to_degrees())));
+        if !(cam.fov > 0.0 && cam.fov < std::f32::consts::PI) {
+            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, 180°)", cam.fov.to_degrees())));
         }
     }
 
