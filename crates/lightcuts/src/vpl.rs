@@ -122,7 +122,7 @@ pub fn project(camera: &Camera, width: u32, height: u32, p: Vec3) -> Option<usiz
     if z <= 1e-6 {
         return None;
     }
-    let tan_half = (camera.fov_y * 0.5).tan();
+    let tan_half = (camera.fov_y(width, height) * 0.5).tan();
     let aspect = width as f32 / height as f32;
     let sx = d.dot(right) / z / (tan_half * aspect);
     let sy = d.dot(up) / z / tan_half;

@@ -22,6 +22,7 @@
 
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Vec2, Vec3, luminance};
+use glimpse_scene::MaterialModel;
 use std::f32::consts::PI;
 
 /// Smallest GGX α (roughness 0 becomes this).
@@ -56,6 +57,8 @@ pub struct Bsdf {
     alpha: f32,
     p_spec: f32,
     model: BrdfModel,
+    /// A conductor's complex IOR (η, k) per channel: `None` for the metallic-roughness model.
+    conductor: Option<(Vec3, Vec3)>,
 }
 
 impl Bsdf {
@@ -85,7 +88,42 @@ impl Bsdf {
                 (diffuse, f0, p.clamp(0.1, 0.9))
             }
         };
-        Some(Bsdf { frame, ng, wo: wo_l, diffuse, f0, alpha, p_spec, model })
+        Some(Bsdf { frame, ng, wo: wo_l, diffuse, f0, alpha, p_spec, model, conductor: None })
+    }
+
+    /// The BRDF of a material of model `material` (not `Dielectric`, whose lobes are deltas the
+    /// path tracer handles itself): `Diffuse` is [`BrdfModel::Lambert`]; `Conductor` is the
+    /// GGX lobe alone with F = base × [`fresnel_conductor`]; `integrator` = Lambert overrides all.
+    #[allow(clippy::too_many_arguments)]
+    pub fn for_material(
+        integrator: BrdfModel,
+        material: MaterialModel,
+        base: Vec3,
+        metallic: f32,
+        roughness: f32,
+        ns: Vec3,
+        ng: Vec3,
+        wo: Vec3,
+    ) -> Option<Bsdf> {
+        match (integrator, material) {
+            (BrdfModel::Lambert, _) | (_, MaterialModel::Diffuse) => Bsdf::new(BrdfModel::Lambert, base, 0.0, 1.0, ns, ng, wo),
+            (_, MaterialModel::Conductor { eta, k }) => {
+                let mut b = Bsdf::new(BrdfModel::Pbr, base, 1.0, roughness, ns, ng, wo)?;
+                b.conductor = Some((eta, k));
+                b.diffuse = Vec3::ZERO;
+                b.p_spec = 1.0;
+                Some(b)
+            }
+            _ => Bsdf::new(integrator, base, metallic, roughness, ns, ng, wo),
+        }
+    }
+
+    /// The specular layer's Fresnel term at cos θ = ωo·h.
+    fn fresnel(&self, cos: f32) -> Vec3 {
+        match self.conductor {
+            Some((eta, k)) => self.f0 * fresnel_conductor(cos, eta, k),
+            None => schlick(self.f0, cos),
+        }
     }
 
     /// The shading cosine of unit world direction `wi` (0 below either surface).
@@ -138,7 +176,7 @@ impl Bsdf {
         let c = wo.dot(h).clamp(0.0, 1.0);
         let diffuse = self.diffuse * ((1.0 - schlick1(0.04, c)) / PI);
         let g2 = 1.0 / (1.0 + lambda(wo, self.alpha) + lambda(wi, self.alpha));
-        let spec = schlick(self.f0, c) * (ggx_d(h, self.alpha) * g2 / (4.0 * wo.z * wi.z));
+        let spec = self.fresnel(c) * (ggx_d(h, self.alpha) * g2 / (4.0 * wo.z * wi.z));
         diffuse + spec
     }
 
@@ -157,6 +195,66 @@ impl Bsdf {
         let p_spec = g1 * ggx_d(h, self.alpha) / (4.0 * wo.z);
         self.p_spec * p_spec + (1.0 - self.p_spec) * p_diffuse
     }
+}
+
+/// The exact Fresnel reflectance of a conductor with complex IOR η + ik (per channel) at
+/// cos θ (pbrt-v4's FrComplex). η = 0, k = 1 reflects everything at every angle.
+pub fn fresnel_conductor(cos: f32, eta: Vec3, k: Vec3) -> Vec3 {
+    let one = |eta: f32, k: f32| -> f32 {
+        // Complex arithmetic on (re, im) pairs.
+        let mul = |a: (f32, f32), b: (f32, f32)| (a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0);
+        let div = |a: (f32, f32), b: (f32, f32)| {
+            let d = b.0 * b.0 + b.1 * b.1;
+            ((a.0 * b.0 + a.1 * b.1) / d, (a.1 * b.0 - a.0 * b.1) / d)
+        };
+        let sqrt = |a: (f32, f32)| {
+            let r = (a.0 * a.0 + a.1 * a.1).sqrt();
+            let re = ((r + a.0) * 0.5).max(0.0).sqrt();
+            let im = ((r - a.0) * 0.5).max(0.0).sqrt();
+            (re, if a.1 < 0.0 { -im } else { im })
+        };
+        let norm = |a: (f32, f32)| a.0 * a.0 + a.1 * a.1;
+        if eta == 0.0 && k == 0.0 {
+            return 1.0;
+        }
+        let c = cos.clamp(0.0, 1.0);
+        let e = (eta, k);
+        let sin2_t = div((1.0 - c * c, 0.0), mul(e, e));
+        let cos_t = sqrt((1.0 - sin2_t.0, -sin2_t.1));
+        let ec = (e.0 * c, e.1 * c);
+        let r_parl = div((ec.0 - cos_t.0, ec.1 - cos_t.1), (ec.0 + cos_t.0, ec.1 + cos_t.1));
+        let ect = mul(e, cos_t);
+        let r_perp = div((c - ect.0, -ect.1), (c + ect.0, ect.1));
+        (0.5 * (norm(r_parl) + norm(r_perp))).clamp(0.0, 1.0)
+    };
+    Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z))
+}
+
+/// The exact Fresnel reflectance of a smooth dielectric boundary at cos θi (> 0, on the side
+/// of the incident light) with relative IOR `eta` = η_transmitted / η_incident (pbrt-v4's
+/// FrDielectric); 1 under total internal reflection.
+pub fn fresnel_dielectric(cos_i: f32, eta: f32) -> f32 {
+    let c = cos_i.clamp(0.0, 1.0);
+    let sin2_t = (1.0 - c * c) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return 1.0;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    let r_parl = (eta * c - cos_t) / (eta * c + cos_t);
+    let r_perp = (c - eta * cos_t) / (c + eta * cos_t);
+    0.5 * (r_parl * r_parl + r_perp * r_perp)
+}
+
+/// `wo` (unit, on `n`'s side, n·wo = `cos_i` > 0) refracted through a boundary of relative IOR
+/// `eta`; `None` under total internal reflection.
+pub fn refract(wo: Vec3, n: Vec3, eta: f32) -> Option<Vec3> {
+    let cos_i = n.dot(wo);
+    let sin2_t = (1.0 - cos_i * cos_i).max(0.0) / (eta * eta);
+    if sin2_t >= 1.0 {
+        return None;
+    }
+    let cos_t = (1.0 - sin2_t).sqrt();
+    Some((-wo / eta + n * (cos_i / eta - cos_t)).normalize())
 }
 
 /// Schlick's Fresnel, per channel.
@@ -273,6 +371,24 @@ mod tests {
         let l = local(BrdfModel::Lambert, Vec3::splat(0.5), 1.0, 0.1, 0.4);
         assert_eq!(l.eval_local(Vec3::Z), Vec3::splat(0.5 / PI));
         assert!((l.pdf_local(Vec3::Z) - 1.0 / PI).abs() < 1e-6);
+    }
+
+    #[test]
+    fn fresnel_known_values() {
+        // Normal incidence: ((η−1)/(η+1))² for glass, ((η−1)² + k²)/((η+1)² + k²) for a metal.
+        assert!((fresnel_dielectric(1.0, 1.5) - 0.04).abs() < 1e-6);
+        assert_eq!(fresnel_dielectric(0.1, 1.0 / 1.5), 1.0, "total internal reflection");
+        let f = fresnel_conductor(1.0, Vec3::splat(0.2), Vec3::splat(3.9)).x;
+        assert!((f - (0.64 + 15.21) / (1.44 + 15.21)).abs() < 1e-5, "{f}");
+        for c in [0.0f32, 0.3, 1.0] {
+            assert!((fresnel_conductor(c, Vec3::ZERO, Vec3::ONE) - Vec3::ONE).abs().max_element() < 1e-6);
+            // A conductor with k = 0 is a dielectric.
+            assert!((fresnel_conductor(c.max(0.05), Vec3::splat(1.5), Vec3::ZERO).x - fresnel_dielectric(c.max(0.05), 1.5)).abs() < 1e-5);
+        }
+        // Snell's law.
+        let wo = Vec3::new(0.6, 0.0, 0.8);
+        let t = refract(wo, Vec3::Z, 1.5).unwrap();
+        assert!((0.6 - 1.5 * (t.x * t.x + t.y * t.y).sqrt()).abs() < 1e-5 && t.z < 0.0);
     }
 
     #[test]

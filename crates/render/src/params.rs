@@ -75,6 +75,22 @@ impl Params {
         Ok(v)
     }
 
+    /// A signed integer in `[min, max]`.
+    pub fn i64(&self, key: &str, default: i64, min: i64, max: i64) -> Result<i64, ParamError> {
+        let v = match self.raw(key) {
+            None => default,
+            Some(s) => {
+                let v: i64 = s.parse().map_err(|_| invalid(key, s, "not an integer"))?;
+                if v < min || v > max {
+                    return Err(invalid(key, s, &format!("must lie in [{min}, {max}]")));
+                }
+                v
+            }
+        };
+        self.effective.borrow_mut().insert(key.to_owned(), v.to_string());
+        Ok(v)
+    }
+
     pub fn bool(&self, key: &str, default: bool) -> Result<bool, ParamError> {
         let v = match self.raw(key).map(|s| s.as_str()) {
             None => default,

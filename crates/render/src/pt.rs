@@ -14,17 +14,22 @@
 //! - a clear coat (`Material::clearcoat` = γ > 0, [`ClearCoat`]): a smooth dielectric layer with
 //!   F_c = γ·Schlick(0.04, n·ωo) over the BRDF, which is weighted by 1 − F_c; its mirror lobe is a
 //!   delta, sampled with probability F_c and given full weight when it finds a light;
+//! - material models ([`MaterialModel`]): `pbr` as above, `diffuse` the Lambert lobe, `conductor`
+//!   the GGX lobe alone with the exact conductor Fresnel term, `dielectric` smooth glass (delta
+//!   reflection with probability F, else refraction with weight 1/η²; no light sampling there,
+//!   light found through it counts in full);
 //! - Russian roulette from the fourth vertex on, continuing with probability
-//!   min(1, max(throughput)) and dividing by it.
+//!   min(1, max(throughput)) and dividing by it; `max_depth=-1` is unbounded, paths ending by
+//!   roulette alone (continuation probability at most 0.95 there, so every path ends).
 //!
 //! Nothing is clamped (the estimator is unbiased); a path whose contribution is NaN or infinite is
 //! dropped and counted ([`PathTracer::nonfinite_paths`]) so tests can assert there are none.
 
-use crate::bsdf::{BrdfModel, Bsdf};
+use crate::bsdf::{self, BrdfModel, Bsdf};
 use crate::direct::{self, EmitterIndex};
 use crate::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_core::{Image, Ray, Rng, Vec3, is_finite3};
-use glimpse_scene::{Scene, SceneFrame};
+use glimpse_scene::{MaterialModel, Scene, SceneFrame};
 use glimpse_trace::{ExactTracer, GBuffer, SurfacePoint};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -32,6 +37,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 pub const ALL_PUNCTUAL: usize = 8;
 /// Russian roulette starts after this many vertices.
 pub const RR_DEPTH: u32 = 3;
+/// `max_depth = -1`: paths end only by Russian roulette.
+pub const UNBOUNDED: u32 = u32::MAX;
+/// The largest continuation probability of an unbounded path.
+pub const UNBOUNDED_RR_MAX: f32 = 0.95;
 
 pub struct PathTracer {
     pub max_depth: u32,
@@ -52,6 +61,9 @@ pub struct PathVertex {
     pub roughness: f32,
     /// Clear-coat strength γ (0: none).
     pub clearcoat: f32,
+    pub model: MaterialModel,
+    /// The ray arrived on the triangle's front (winding) side: a dielectric is entered there.
+    pub front_face: bool,
 }
 
 impl PathVertex {
@@ -65,6 +77,8 @@ impl PathVertex {
             metallic: m.metallic,
             roughness: m.roughness,
             clearcoat: m.clearcoat,
+            model: m.model,
+            front_face: sp.front_face,
         }
     }
 }
@@ -133,6 +147,22 @@ pub struct PathIntegrator<'a> {
 }
 
 impl PathIntegrator<'_> {
+    /// Russian roulette after vertex `depth`: false ends the path. It continues with
+    /// probability q = min(1, max(β)) and divides β by q; when the depth is unbounded, q is at
+    /// most [`UNBOUNDED_RR_MAX`] so that a closed, perfectly white scene still terminates.
+    fn roulette(&self, depth: u32, beta: &mut Vec3, rng: &mut Rng) -> bool {
+        if depth < RR_DEPTH {
+            return true;
+        }
+        let cap = if self.max_depth == UNBOUNDED { UNBOUNDED_RR_MAX } else { 1.0 };
+        let q = beta.max_element().min(cap);
+        if rng.next_f32() >= q {
+            return false;
+        }
+        *beta /= q;
+        true
+    }
+
     /// Radiance leaving `v` towards `wo` (without `v`'s own emission) and the rays traced.
     pub fn path(&self, mut v: PathVertex, mut wo: Vec3, start: PathStart, rng: &mut Rng) -> (Vec3, u64) {
         let frame = self.frame;
@@ -141,7 +171,42 @@ impl PathIntegrator<'_> {
         let (mut beta, mut l, mut rays) = (Vec3::ONE, Vec3::ZERO, 0u64);
         for depth in start.depth..=self.max_depth {
             let model = if depth == start.depth { start.model.unwrap_or(self.model) } else { self.model };
-            let Some(bsdf) = Bsdf::new(model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
+            if let (BrdfModel::Pbr, MaterialModel::Dielectric { ior }) = (model, v.model) {
+                // Smooth glass: only its delta lobes, no light sampling. Reflect with probability
+                // F (weight base·F/F), else refract (weight base/η², radiance compressed by the
+                // change of solid angle, pbrt-v4's radiance transport).
+                let eta = if v.front_face { ior } else { 1.0 / ior };
+                let n = v.normal;
+                let f = bsdf::fresnel_dielectric(n.dot(wo), eta);
+                let refracted = if rng.next_f32() < f { None } else { bsdf::refract(wo, n, eta) };
+                let wi = match refracted {
+                    Some(t) => {
+                        beta *= v.base / (eta * eta);
+                        t
+                    }
+                    None => {
+                        beta *= v.base;
+                        (2.0 * n.dot(wo) * n - wo).normalize()
+                    }
+                };
+                let ray = Ray::spawn(v.position, v.normal, wi);
+                rays += 1;
+                let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
+                    if let Some(env) = env {
+                        l += beta * env.radiance(wi);
+                    }
+                    break;
+                };
+                let sp = SurfacePoint::from_hit(frame, &ray, &hit);
+                l += beta * sp.emission(frame);
+                if depth == self.max_depth || !self.roulette(depth, &mut beta, rng) {
+                    break;
+                }
+                wo = -wi;
+                v = PathVertex::of(frame, &sp);
+                continue;
+            }
+            let Some(bsdf) = Bsdf::for_material(model, v.model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
                 break;
             };
             let coat = ClearCoat::at(&v, model, wo);
@@ -235,15 +300,8 @@ impl PathIntegrator<'_> {
                     .map_or(1.0, |p| direct::power_heuristic(p, self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light)));
                 l += beta * le * w;
             }
-            if depth == self.max_depth {
+            if depth == self.max_depth || !self.roulette(depth, &mut beta, rng) {
                 break;
-            }
-            if depth >= RR_DEPTH {
-                let q = beta.max_element().min(1.0);
-                if rng.next_f32() >= q {
-                    break;
-                }
-                beta /= q;
             }
             wo = -wi;
             v = PathVertex::of(frame, &sp);
@@ -268,7 +326,14 @@ impl PathTracer {
 
     pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         direct::require_spp(settings)?;
-        let max_depth = params.u32("max_depth", 8, 1, 1024)?;
+        let max_depth = match params.i64("max_depth", 8, -1, 1024)? {
+            -1 => UNBOUNDED,
+            0 => {
+                let message = "renders nothing: give 1..1024, or -1 for unbounded".into();
+                return Err(crate::ParamError::Invalid { key: "max_depth".into(), value: "0".into(), message }.into());
+            }
+            d => d as u32,
+        };
         let brdf = match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {
             "lambert" => BrdfModel::Lambert,
             _ => BrdfModel::Pbr,
@@ -285,14 +350,24 @@ impl PathTracer {
     /// rays it traced.
     fn path(&self, ctx: &FrameContext, g: &GBuffer, i: usize, rng: &mut Rng) -> (Vec3, u64) {
         let m = &ctx.frame.scene.materials[g.material[i] as usize];
-        let v = PathVertex {
-            position: g.position[i],
-            normal: g.normal[i],
-            shading_normal: g.shading_normal[i],
-            base: g.albedo[i],
-            metallic: m.metallic,
-            roughness: m.roughness,
-            clearcoat: m.clearcoat,
+        let glass = matches!(m.model, MaterialModel::Dielectric { .. });
+        // The GBuffer does not keep the hit's side, which glass needs: trace the primary ray again.
+        let primary = Ray::new(g.camera.position, g.view_dir[i]);
+        let hit = if glass { ctx.tracer.closest_hit(&primary, f32::INFINITY) } else { None };
+        let v = if let Some(hit) = hit {
+            PathVertex::of(&ctx.frame, &SurfacePoint::from_hit(&ctx.frame, &primary, &hit))
+        } else {
+            PathVertex {
+                position: g.position[i],
+                normal: g.normal[i],
+                shading_normal: g.shading_normal[i],
+                base: g.albedo[i],
+                metallic: m.metallic,
+                roughness: m.roughness,
+                clearcoat: m.clearcoat,
+                model: m.model,
+                front_face: true,
+            }
         };
         let integrator = PathIntegrator {
             frame: &ctx.frame,

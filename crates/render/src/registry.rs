@@ -43,6 +43,26 @@ impl Registry {
         let info = self.get(id)?;
         let t = (info.create)(scene, settings, params)?;
         params.finish(id)?;
+        note_material_fallback(id, scene);
         Ok(t)
+    }
+}
+
+/// Only `pt` renders conductors and glass; every other technique shades them as diffuse
+/// `base_color` (the closest model it has). Said once per process on stderr.
+fn note_material_fallback(id: &str, scene: &Scene) {
+    use std::sync::atomic::{AtomicBool, Ordering};
+    static SAID: AtomicBool = AtomicBool::new(false);
+    if id == "pt" {
+        return;
+    }
+    if let Some(m) = scene.materials.iter().find(|m| m.needs_path_tracer())
+        && !SAID.swap(true, Ordering::Relaxed)
+    {
+        eprintln!(
+            "note: material '{}' is a {}: only pt renders it as such; {id} and the other techniques shade conductor and dielectric materials as diffuse base_color",
+            m.name,
+            m.model.name()
+        );
     }
 }

@@ -519,3 +519,29 @@ fn pt_mse_falls_as_one_over_spp() {
     println!("log-log slope of MSE against spp: {slope:.3} (expected −1)");
     assert!((-1.3..=-0.7).contains(&slope), "slope {slope}");
 }
+
+#[test]
+fn furnace_pt_material_models() {
+    // Under L = 1 a white smooth glass sphere passes everything: each path leaves it with
+    // throughput (1/η²)·η² = 1 (reflections weigh 1), so with unbounded depth every pixel is 1
+    // in expectation. A white perfect conductor (η = 0, k = 1, roughness 0) reflects everything
+    // (F = 1, α = 1e-3 barely masks). A white `diffuse` sphere is 1 at max_depth = 1.
+    use glimpse_scene::MaterialModel;
+    let white = |model| Material { name: "white".into(), base_color: Vec3::ONE, roughness: 0.0, model, ..Default::default() };
+    for (name, model, set) in [
+        ("glass ior 1.5, max_depth=-1", MaterialModel::Dielectric { ior: 1.5 }, &["max_depth=-1"][..]),
+        ("perfect conductor", MaterialModel::PERFECT_CONDUCTOR, &[][..]),
+        ("diffuse, max_depth=1", MaterialModel::Diffuse, &["max_depth=1"][..]),
+    ] {
+        let (img, g) = render_pt(&furnace(white(model)), 16, 9, set, 32, 32);
+        let v: Vec<f64> = on_instance(&img, &g, 0).iter().map(|&i| img.pixels[i].x as f64).collect();
+        let (mean, se) = mean_se(&v);
+        println!("pt furnace, white {name}, 16 spp: mean {mean:.5} ± {se:.5} (expected 1)");
+        assert!((mean - 1.0).abs() < 4.0 * se + 2e-3, "{name}: {mean} ± {se}");
+    }
+    // A grey diffuse sphere is ρ whatever `brdf` says (its model is Lambert already).
+    let grey = Material { model: MaterialModel::Diffuse, base_color: Vec3::splat(RHO), metallic: 1.0, ..Default::default() };
+    let (img, g) = render_pt(&furnace(grey), 16, 4, &["max_depth=1"], 32, 32);
+    let (mean, se) = mean_se(&on_instance(&img, &g, 0).iter().map(|&i| img.pixels[i].x as f64).collect::<Vec<_>>());
+    assert!((mean - RHO as f64).abs() < 4.0 * se + 1e-3, "diffuse ignores metallic: {mean}");
+}

@@ -3,18 +3,49 @@
 
 use glimpse_core::{Aabb, Ray, Vec3};
 
+/// The image axis along which [`Camera::fov`] is measured (Mitsuba's `fov_axis`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum FovAxis {
+    X,
+    #[default]
+    Y,
+    /// The shorter image side.
+    Smaller,
+    /// The longer image side.
+    Larger,
+}
+
 #[derive(Clone, Debug, PartialEq)]
 pub struct Camera {
     pub position: Vec3,
     pub target: Vec3,
     pub up: Vec3,
-    /// Vertical field of view in radians.
-    pub fov_y: f32,
+    /// Field of view in radians, across the image along `fov_axis`.
+    pub fov: f32,
+    pub fov_axis: FovAxis,
 }
 
 impl Camera {
     pub fn look_at(position: Vec3, target: Vec3, up: Vec3, fov_y_degrees: f32) -> Self {
-        Self { position, target, up, fov_y: fov_y_degrees.to_radians() }
+        Self::vertical(position, target, up, fov_y_degrees.to_radians())
+    }
+
+    /// A camera whose field of view `fov_y` (radians) is vertical.
+    pub fn vertical(position: Vec3, target: Vec3, up: Vec3, fov_y: f32) -> Self {
+        Self { position, target, up, fov: fov_y, fov_axis: FovAxis::Y }
+    }
+
+    /// The vertical field of view (radians) on an image of `width × height`: `fov` converted
+    /// through equal tangent-plane scales, tan(fov_y/2) = tan(fov_x/2) · height/width.
+    pub fn fov_y(&self, width: u32, height: u32) -> f32 {
+        let (w, h) = (width.max(1) as f32, height.max(1) as f32);
+        let horizontal = match self.fov_axis {
+            FovAxis::X => true,
+            FovAxis::Y => false,
+            FovAxis::Smaller => w < h,
+            FovAxis::Larger => w > h,
+        };
+        if horizontal { 2.0 * ((self.fov * 0.5).tan() * h / w).atan() } else { self.fov }
     }
 
     /// A camera on the +z side of the box, slightly above, looking at its centre from far enough
@@ -26,7 +57,7 @@ impl Camera {
         let half = (fov_y * 0.5).min((fov_y * 0.5).tan().atan2(1.0 / aspect.max(1e-3)).max(1e-3));
         let distance = radius / half.sin();
         let dir = Vec3::new(0.0, 0.25, 1.0).normalize();
-        Self { position: center + dir * distance, target: center, up: Vec3::Y, fov_y }
+        Self::vertical(center + dir * distance, center, Vec3::Y, fov_y)
     }
 
     /// The primary ray through continuous pixel coordinates `(px, py)` of a `width × height` image.
@@ -34,7 +65,7 @@ impl Camera {
         let forward = (self.target - self.position).normalize();
         let right = forward.cross(self.up).normalize();
         let up = right.cross(forward);
-        let tan_half = (self.fov_y * 0.5).tan();
+        let tan_half = (self.fov_y(width, height) * 0.5).tan();
         let aspect = width as f32 / height as f32;
         let sx = (2.0 * px / width as f32 - 1.0) * tan_half * aspect;
         let sy = (1.0 - 2.0 * py / height as f32) * tan_half;
@@ -65,7 +96,34 @@ mod tests {
         for i in 0..8 {
             let p = Vec3::new([b.min.x, b.max.x][i & 1], [b.min.y, b.max.y][(i >> 1) & 1], [b.min.z, b.max.z][i >> 2]);
             let angle = forward.angle_between((p - c.position).normalize());
-            assert!(angle < c.fov_y * 0.5 + 1e-4, "corner {p} outside the view");
+            assert!(angle < c.fov * 0.5 + 1e-4, "corner {p} outside the view");
+        }
+    }
+
+    #[test]
+    fn fov_axis_measures_the_named_side() {
+        let mut c = Camera::look_at(Vec3::ZERO, -Vec3::Z, Vec3::Y, 60.0);
+        // The angle between the rays through the middles of opposite image edges.
+        let across = |c: &Camera, w: u32, h: u32, horizontal: bool| {
+            let (a, b) = if horizontal {
+                (c.ray(0.0, h as f32 / 2.0, w, h).dir, c.ray(w as f32, h as f32 / 2.0, w, h).dir)
+            } else {
+                (c.ray(w as f32 / 2.0, 0.0, w, h).dir, c.ray(w as f32 / 2.0, h as f32, w, h).dir)
+            };
+            a.angle_between(b).to_degrees()
+        };
+        for (axis, w, h, horizontal) in [
+            (FovAxis::Y, 200, 100, false),
+            (FovAxis::X, 200, 100, true),
+            (FovAxis::X, 100, 200, true),
+            (FovAxis::Smaller, 200, 100, false),
+            (FovAxis::Smaller, 100, 200, true),
+            (FovAxis::Larger, 200, 100, true),
+            (FovAxis::Larger, 100, 200, false),
+        ] {
+            c.fov_axis = axis;
+            let got = across(&c, w, h, horizontal);
+            assert!((got - 60.0).abs() < 1e-3, "{axis:?} on {w}x{h}: {got}°");
         }
     }
 }

@@ -654,7 +654,7 @@ impl<'a> Loader<'a> {
         let position = m.transform_point3(Vec3::ZERO);
         let forward = m.transform_vector3(Vec3::NEG_Z).normalize_or(Vec3::NEG_Z);
         let up = m.transform_vector3(Vec3::Y).normalize_or(Vec3::Y);
-        self.scene.camera = Some(Camera { position, target: position + forward, up, fov_y: p.yfov() });
+        self.scene.camera = Some(Camera::vertical(position, position + forward, up, p.yfov()));
     }
 }
 

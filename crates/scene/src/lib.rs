@@ -24,12 +24,12 @@ pub mod toml_loader;
 pub mod validate;
 
 pub use animation::{Deformation, Motion, Transform, TransformKey};
-pub use camera::Camera;
+pub use camera::{Camera, FovAxis};
 pub use environment::Environment;
 pub use error::SceneError;
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
 pub use light::{Light, LightKind};
-pub use model::{Instance, Material, Mesh, Scene};
+pub use model::{Instance, Material, MaterialModel, Mesh, Scene};
 pub use render_hints::RenderHints;
 
 use std::path::Path;

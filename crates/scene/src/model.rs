@@ -39,16 +39,52 @@ impl Mesh {
     }
 }
 
-/// A metallic-roughness material (the glTF 2.0 model). Lambertian techniques use `base_color`
-/// as the diffuse albedo; the path tracer uses all of it.
+/// Which reflectance model a [`Material`] follows. The path tracer renders every model; the
+/// Lambertian techniques shade `base_color` as a diffuse albedo whatever the model (and say so).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum MaterialModel {
+    /// glTF 2.0 metallic-roughness: a Lambertian base under a GGX specular layer.
+    #[default]
+    Pbr,
+    /// Lambertian: `base_color`/π, nothing else (Mitsuba's `diffuse`).
+    Diffuse,
+    /// A GGX conductor (α = roughness², roughness 0 is a mirror): reflectance `base_color` ×
+    /// the exact conductor Fresnel term of complex IOR η + ik per channel. The default
+    /// η = 0, k = 1 reflects everything at every angle (Mitsuba's `material = "none"`), so
+    /// `base_color` alone is the reflectance.
+    Conductor { eta: Vec3, k: Vec3 },
+    /// Smooth glass: delta reflection and refraction weighted by the exact dielectric Fresnel
+    /// term with relative index of refraction `ior` (inside / outside); `base_color` tints
+    /// both (Mitsuba's specular reflectance = transmittance, default white).
+    Dielectric { ior: f32 },
+}
+
+impl MaterialModel {
+    /// A mirror-like conductor that reflects `base_color` at every angle.
+    pub const PERFECT_CONDUCTOR: MaterialModel = MaterialModel::Conductor { eta: Vec3::ZERO, k: Vec3::ONE };
+
+    pub fn name(&self) -> &'static str {
+        match self {
+            MaterialModel::Pbr => "pbr",
+            MaterialModel::Diffuse => "diffuse",
+            MaterialModel::Conductor { .. } => "conductor",
+            MaterialModel::Dielectric { .. } => "dielectric",
+        }
+    }
+}
+
+/// A material: by default glTF 2.0's metallic-roughness model ([`MaterialModel`] says which).
+/// Lambertian techniques use `base_color` as the diffuse albedo; the path tracer uses all of it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Material {
     pub name: String,
+    pub model: MaterialModel,
     pub base_color: Vec3,
     /// Index into [`Scene::textures`], multiplied with `base_color`.
     pub base_color_texture: Option<u32>,
-    /// Perceptual roughness in [0,1] (GGX α = roughness²).
+    /// Perceptual roughness in [0,1] (GGX α = roughness²): `pbr` and `conductor`.
     pub roughness: f32,
+    /// `pbr` only.
     pub metallic: f32,
     /// Emitted radiance (W/(m²·sr) per channel): a non-zero emission makes every triangle with
     /// this material an area light.
@@ -62,6 +98,7 @@ impl Default for Material {
     fn default() -> Self {
         Self {
             name: "default".into(),
+            model: MaterialModel::Pbr,
             base_color: Vec3::splat(0.8),
             base_color_texture: None,
             roughness: 1.0,
@@ -79,6 +116,12 @@ impl Material {
 
     pub fn emissive(name: &str, emission: Vec3) -> Self {
         Self { name: name.into(), base_color: Vec3::ZERO, emission, ..Default::default() }
+    }
+
+    /// True when only the path tracer renders this material as it is: the Lambertian
+    /// techniques shade it as a diffuse `base_color` instead.
+    pub fn needs_path_tracer(&self) -> bool {
+        !matches!(self.model, MaterialModel::Pbr | MaterialModel::Diffuse)
     }
 
     pub fn is_emissive(&self) -> bool {

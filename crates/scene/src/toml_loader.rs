@@ -9,7 +9,9 @@
 //! position = [0.0, 1.0, 4.0]         # *
 //! target = [0.0, 0.5, 0.0]           # *
 //! up = [0.0, 1.0, 0.0]               # default +y
-//! fov_y_degrees = 40.0               # vertical; default 45
+//! fov_degrees = 40.0                 # across the image along fov_axis; default 45
+//! fov_axis = "y"                     # "x", "y" (default), "smaller" or "larger" image side
+//! # fov_y_degrees = 40.0             # the older spelling of fov_degrees with fov_axis = "y"
 //!
 //! [environment]                      # exactly one of file, constant, sky
 //! file = "studio.hdr"                # equirectangular .hdr/.exr/.png (+y up, centre looks along −z)
@@ -28,6 +30,15 @@
 //! # material = { roughness = 0.3, texture = { checker = { cells = 8, colors = [[0.1, 0.1, 0.1], [0.9, 0.9, 0.9]] } } }
 //! #                                  # or texture = { noise = { cells = 8, octaves = 4, colors = [...], seed = 0 }, resolution = 512 }:
 //! #                                  # a procedural base-colour texture over the mesh's uvs (crate::procedural)
+//! # material = { model = "diffuse", base_color = [0.5, 0.5, 0.5] }      # Lambertian
+//! # material = { model = "conductor", base_color = [0.9, 0.6, 0.3], roughness = 0.3, eta = [0.2, 0.9, 1.1], k = [3.9, 2.4, 2.2] }
+//! # material = { model = "dielectric", ior = 1.5 }                      # smooth glass
+//!                                    # model: "pbr" (default: metallic-roughness), "diffuse",
+//!                                    # "conductor" (GGX; roughness default 0 = mirror; eta, k default
+//!                                    # 0 and 1 = reflects base_color at every angle), "dielectric"
+//!                                    # (smooth; ior default 1.5). conductor and dielectric take
+//!                                    # base_color = [1, 1, 1] unless given; metallic and clearcoat
+//!                                    # belong to pbr, ior to dielectric, eta and k to conductor
 //! spin = { axis = [0, 1, 0], period_s = 4.0, center = [0, 0, 0], phase = 0.0 }
 //!                                    # turns about the line through `center` (default: `translate`)
 //!                                    # along `axis` (default +y), once per period; phase in turns
@@ -65,7 +76,9 @@
 
 use crate::builtin::{box_mesh, plane_mesh, sphere_mesh};
 use crate::obj_loader::TextureCache;
-use crate::{Camera, Deformation, Environment, Light, Material, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
+use crate::{
+    Camera, Deformation, Environment, FovAxis, Light, Material, MaterialModel, Mesh, Motion, Scene, SceneError, Transform, TransformKey,
+};
 use glimpse_core::{Image, Mat4, Quat, Vec2, Vec3};
 use serde::{Deserialize, Deserializer};
 use std::path::{Path, PathBuf};
@@ -94,6 +107,8 @@ struct CameraDef {
     position: [f32; 3],
     target: [f32; 3],
     up: Option<[f32; 3]>,
+    fov_degrees: Option<f32>,
+    fov_axis: Option<String>,
     fov_y_degrees: Option<f32>,
 }
 
@@ -117,6 +132,10 @@ struct SkyDef {
 #[derive(Deserialize, Default)]
 #[serde(deny_unknown_fields)]
 struct MaterialDef {
+    model: Option<String>,
+    ior: Option<f32>,
+    eta: Option<[f32; 3]>,
+    k: Option<[f32; 3]>,
     base_color: Option<[f32; 3]>,
     base_color_texture: Option<PathBuf>,
     /// A procedural base-colour texture (`crate::procedural`), instead of `base_color_texture`.
@@ -342,12 +361,7 @@ impl Builder<'_> {
             self.scene.environment = Some(self.environment(env)?);
         }
         self.scene.camera = match &def.camera {
-            Some(c) => Some(Camera::look_at(
-                Vec3::from_array(c.position),
-                Vec3::from_array(c.target),
-                Vec3::from_array(c.up.unwrap_or([0.0, 1.0, 0.0])),
-                c.fov_y_degrees.unwrap_or(45.0),
-            )),
+            Some(c) => Some(self.camera(c)?),
             None => file_camera,
         };
         Ok(self.scene)
@@ -452,8 +466,78 @@ impl Builder<'_> {
         Ok((motion, wave))
     }
 
+    fn camera(&self, c: &CameraDef) -> Result<Camera, SceneError> {
+        let fov_axis = match c.fov_axis.as_deref() {
+            None | Some("y") => FovAxis::Y,
+            Some("x") => FovAxis::X,
+            Some("smaller") => FovAxis::Smaller,
+            Some("larger") => FovAxis::Larger,
+            Some(other) => {
+                return Err(self.invalid(format!("[camera]: fov_axis = \"{other}\" is not one of \"x\", \"y\", \"smaller\", \"larger\"")));
+            }
+        };
+        let fov_degrees = match (c.fov_degrees, c.fov_y_degrees) {
+            (Some(_), Some(_)) => return Err(self.invalid("[camera]: give fov_degrees or fov_y_degrees, not both".into())),
+            (None, Some(_)) if fov_axis != FovAxis::Y => {
+                return Err(self.invalid("[camera]: fov_y_degrees is vertical; with fov_axis, give fov_degrees".into()));
+            }
+            (f, g) => f.or(g).unwrap_or(45.0),
+        };
+        let mut camera = Camera::look_at(
+            Vec3::from_array(c.position),
+            Vec3::from_array(c.target),
+            Vec3::from_array(c.up.unwrap_or([0.0, 1.0, 0.0])),
+            fov_degrees,
+        );
+        camera.fov_axis = fov_axis;
+        Ok(camera)
+    }
+
     /// A material from defaults plus the given fields.
-    fn apply_material(&mut self, mat: &mut Material, def: &MaterialDef) -> Result<(), SceneError> {
+    fn apply_material(&mut self, mat: &mut Material, def: &MaterialDef, what: &str) -> Result<(), SceneError> {
+        let bad = |key: &str, model: &str| self.invalid(format!("{what}: material key `{key}` does not apply to model \"{model}\""));
+        let model = def.model.as_deref().unwrap_or(mat.model.name());
+        if model != "dielectric" && def.ior.is_some() {
+            return Err(bad("ior", model));
+        }
+        if model != "conductor" && (def.eta.is_some() || def.k.is_some()) {
+            return Err(bad(if def.eta.is_some() { "eta" } else { "k" }, model));
+        }
+        if model != "pbr" && (def.metallic.is_some() || def.clearcoat.is_some()) {
+            return Err(bad(if def.metallic.is_some() { "metallic" } else { "clearcoat" }, model));
+        }
+        if let Some(name) = &def.model {
+            mat.model = match name.as_str() {
+                "pbr" => MaterialModel::Pbr,
+                "diffuse" => MaterialModel::Diffuse,
+                "conductor" => {
+                    mat.roughness = 0.0;
+                    mat.base_color = Vec3::ONE;
+                    MaterialModel::PERFECT_CONDUCTOR
+                }
+                "dielectric" => {
+                    mat.base_color = Vec3::ONE;
+                    MaterialModel::Dielectric { ior: 1.5 }
+                }
+                other => {
+                    return Err(self.invalid(format!(
+                        "{what}: material model \"{other}\" is not one of \"pbr\", \"diffuse\", \"conductor\", \"dielectric\""
+                    )));
+                }
+            };
+            if mat.model != MaterialModel::Pbr {
+                mat.metallic = 0.0;
+                mat.clearcoat = 0.0;
+            }
+        }
+        match &mut mat.model {
+            MaterialModel::Conductor { eta, k } => {
+                *eta = def.eta.map_or(*eta, Vec3::from_array);
+                *k = def.k.map_or(*k, Vec3::from_array);
+            }
+            MaterialModel::Dielectric { ior } => *ior = def.ior.unwrap_or(*ior),
+            _ => {}
+        }
         if let Some(c) = def.base_color {
             mat.base_color = Vec3::from_array(c);
         }
@@ -484,7 +568,7 @@ impl Builder<'_> {
         let (motion, wave) = self.animation(c, what)?;
         let mut mat = Material { name: what.to_owned(), ..Default::default() };
         if let Some(def) = c.material {
-            self.apply_material(&mut mat, def)?;
+            self.apply_material(&mut mat, def, what)?;
         }
         let id = self.scene.add_material(mat);
         let mut mesh = make(id);
@@ -521,7 +605,7 @@ impl Builder<'_> {
         for mut m in sub.materials {
             m.base_color_texture = m.base_color_texture.map(|t| t + tex_offset);
             if let Some(def) = material {
-                self.apply_material(&mut m, def)?;
+                self.apply_material(&mut m, def, what)?;
             }
             self.scene.materials.push(m);
         }
@@ -553,7 +637,7 @@ impl Builder<'_> {
         Ok(sub.camera.map(|c| {
             let m = motion.at(0.0);
             let position = m.transform_point3(c.position);
-            Camera { position, target: m.transform_point3(c.target), up: m.transform_vector3(c.up), fov_y: c.fov_y }
+            Camera { position, target: m.transform_point3(c.target), up: m.transform_vector3(c.up), ..c }
         }))
     }
 

@@ -36,6 +36,17 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if !(0.0..=1.0).contains(&mat.clearcoat) {
             return Err(invalid(format!("material {mi} '{name}': clearcoat {} must lie in [0, 1]", mat.clearcoat)));
         }
+        match mat.model {
+            crate::MaterialModel::Conductor { eta, k }
+                if !is_finite3(eta) || !is_finite3(k) || eta.min_element() < 0.0 || k.min_element() < 0.0 =>
+            {
+                return Err(invalid(format!("material {mi} '{name}': conductor eta {eta} and k {k} must be finite and non-negative")));
+            }
+            crate::MaterialModel::Dielectric { ior } if !(ior.is_finite() && ior > 0.0) => {
+                return Err(invalid(format!("material {mi} '{name}': dielectric ior {ior} must be finite and positive")));
+            }
+            _ => {}
+        }
         if let Some(t) = mat.base_color_texture
             && t as usize >= scene.textures.len()
         {
@@ -136,8 +147,8 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         }
         // Beyond 170° a pinhole image stretches its edges by more than tan(85°) ≈ 11×: 179.99°
         // is a typo or a unit mix-up, not a camera.
-        if !(cam.fov_y > 0.0 && cam.fov_y <= MAX_FOV_DEGREES.to_radians()) {
-            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, {MAX_FOV_DEGREES}°]", cam.fov_y.to_degrees())));
+        if !(cam.fov > 0.0 && cam.fov <= MAX_FOV_DEGREES.to_radians()) {
+            return Err(invalid(format!("the camera's field of view {}° must lie in (0°, {MAX_FOV_DEGREES}°]", cam.fov.to_degrees())));
         }
     }
 

@@ -143,7 +143,7 @@ fn mcguire_light_emits_and_spot_has_its_texture() {
     assert_eq!(f.emissive.len(), 2);
     assert!(y.iter().all(|&y| (y - 0.99).abs() < 1e-6) && close(f.emissive[0].normal, Vec3::NEG_Y));
     assert_eq!(f.emissive[0].radiance, Vec3::new(18.387, 13.9873, 6.75357));
-    assert!((cbox.camera.as_ref().unwrap().fov_y.to_degrees() - 39.3077).abs() < 1e-4);
+    assert!((cbox.camera.as_ref().unwrap().fov.to_degrees() - 39.3077).abs() < 1e-4);
 
     let spot = load(&crate_dir().join("../../scenes/spot.toml")).unwrap();
     let cow = &spot.meshes[0];
@@ -380,7 +380,7 @@ fn check_test_gltf(scene: &Scene, offset: Vec3) {
     let cam = scene.camera.as_ref().unwrap();
     println!("  camera {cam:?}");
     assert!(close(cam.position - offset, Vec3::new(0.0, 1.0, 5.0)) && close(cam.target - offset, Vec3::new(0.0, 1.0, 4.0)));
-    assert!(close(cam.up, Vec3::Y) && cam.fov_y == 0.7);
+    assert!(close(cam.up, Vec3::Y) && cam.fov == 0.7);
     assert_eq!(scene.at(0.0).emissive.len(), 1);
 }
 
@@ -553,7 +553,7 @@ intensity = 5
     assert_eq!((f1.lights[2].kind, f1.lights[2].intensity), (LightKind::Directional, Vec3::splat(5.0)));
     let env = scene.environment.as_ref().unwrap();
     assert_eq!(env.radiance(Vec3::X), Vec3::new(0.2, 0.4, 0.6));
-    assert_eq!(scene.camera.as_ref().unwrap().fov_y, 50f32.to_radians());
+    assert_eq!(scene.camera.as_ref().unwrap().fov, 50f32.to_radians());
 }
 
 #[test]
@@ -740,4 +740,44 @@ fn truncated_and_corrupted_files_never_panic() {
     }
     println!("{ok} loaded, {failed} failed cleanly");
     assert!(ok > 0 && failed > 0);
+}
+
+#[test]
+fn material_models_and_fov_axis_from_toml() {
+    let dir = std::env::temp_dir().join(format!("glimpse-models-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("models.toml");
+    let text = r#"
+[camera]
+position = [0, 0, 5]
+target = [0, 0, 0]
+fov_degrees = 30
+fov_axis = "x"
+[[quad]]
+material = { model = "diffuse", base_color = [0.5, 0.5, 0.5] }
+[[box]]
+material = { model = "conductor", roughness = 0.2, eta = [0.2, 0.9, 1.1], k = [3.9, 2.4, 2.2] }
+[[sphere]]
+material = { model = "dielectric", ior = 1.33 }
+"#;
+    std::fs::write(&path, text).unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    let cam = scene.camera.as_ref().unwrap();
+    assert_eq!(cam.fov_axis, glimpse_scene::FovAxis::X);
+    assert!((cam.fov - 30f32.to_radians()).abs() < 1e-6);
+    let m = &scene.materials;
+    assert_eq!(m[0].model, glimpse_scene::MaterialModel::Diffuse);
+    assert_eq!(m[1].model, glimpse_scene::MaterialModel::Conductor { eta: Vec3::new(0.2, 0.9, 1.1), k: Vec3::new(3.9, 2.4, 2.2) });
+    assert_eq!((m[1].roughness, m[1].base_color), (0.2, Vec3::ONE));
+    assert_eq!(m[2].model, glimpse_scene::MaterialModel::Dielectric { ior: 1.33 });
+    for (bad, needle) in [
+        ("material = { model = \"glass\" }", "material model \"glass\""),
+        ("material = { model = \"diffuse\", ior = 1.5 }", "`ior` does not apply"),
+        ("material = { model = \"dielectric\", ior = -1.0 }", "ior -1"),
+    ] {
+        std::fs::write(&path, format!("[[quad]]\n{bad}\n")).unwrap();
+        let e = glimpse_scene::load(path.to_str().unwrap()).unwrap_err().to_string();
+        assert!(e.contains("models.toml") && e.contains(needle), "{bad}: {e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -105,7 +105,17 @@ impl<'a> Integrator<'a> {
     /// light of punctual lights (the runtime traces those): π × the radiance a white Lambertian
     /// vertex reflects.
     pub fn irradiance(&self, p: Vec3, ng: Vec3, ns: Vec3, rng: &mut Rng) -> (Vec3, u64) {
-        let v = PathVertex { position: p, normal: ng, shading_normal: ns, base: Vec3::ONE, metallic: 0.0, roughness: 1.0, clearcoat: 0.0 };
+        let v = PathVertex {
+            position: p,
+            normal: ng,
+            shading_normal: ns,
+            base: Vec3::ONE,
+            metallic: 0.0,
+            roughness: 1.0,
+            clearcoat: 0.0,
+            model: glimpse_scene::MaterialModel::Pbr,
+            front_face: true,
+        };
         let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: false };
         let (l, rays) = self.pt().path(v, ns, start, rng);
         (l * PI, rays)

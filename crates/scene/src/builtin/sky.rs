@@ -133,7 +133,7 @@ mod tests {
         let up = right.cross(forward);
         let sun = sun_direction();
         let (sx, sy) = (sun.dot(right) / sun.dot(forward), sun.dot(up) / sun.dot(forward));
-        let tan_half = (c.fov_y * 0.5).tan();
+        let tan_half = (c.fov * 0.5).tan();
         println!(
             "sun at image-plane ({sx:.3}, {sy:.3}); frame half-size {tan_half:.3} tall, {tan_half:.3}..{:.3} wide",
             tan_half * 16.0 / 9.0
