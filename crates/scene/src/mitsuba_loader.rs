@@ -22,7 +22,7 @@
 
 use crate::builtin::{box_mesh, sphere_mesh};
 use crate::obj_loader::TextureCache;
-use crate::{Camera, Environment, Light, Material, Mesh, Scene, SceneError};
+use crate::{Camera, Environment, Light, Material, MaterialModel, Mesh, Scene, SceneError};
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
@@ -475,7 +475,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         if left.dot(up.cross(forward)) <= 0.0 {
             return Err(self.unsupported(node, "a mirrored camera transform (negative scale) is not supported"));
         }
-        Ok(Camera { position, target: position + forward, up, fov_y })
+        Ok(Camera::vertical(position, position + forward, up, fov_y))
     }
 
     fn sampler(&mut self, node: Node) -> Result<(), SceneError> {
@@ -665,7 +665,6 @@ impl<'a, 'input> Loader<'a, 'input> {
                     return Err(self.malformed(node, "IORs must be positive"));
                 }
                 m.set_dielectric(int_ior / ext_ior);
-                self.warn(node, "glimpse has no dielectric material yet: rendered as a smooth white mirror");
             }
             _ => {
                 return Err(
@@ -1001,27 +1000,21 @@ trait MitsubaMaterial {
 
 impl MitsubaMaterial for Material {
     fn set_lambertian(&mut self) {
+        self.model = MaterialModel::Diffuse;
         self.roughness = 1.0;
         self.metallic = 0.0;
     }
 
     fn set_conductor(&mut self, tint: Vec3, eta: Vec3, k: Vec3, alpha: f32) {
-        self.base_color = tint * conductor_f0(eta, k);
+        self.model = MaterialModel::Conductor { eta, k };
+        self.base_color = tint;
         self.base_color_texture = None;
-        self.metallic = 1.0;
         self.roughness = alpha.sqrt();
     }
 
-    fn set_dielectric(&mut self, _eta: f32) {
-        // No glass in the model yet: a white smooth metal stands in (a warning says so).
+    fn set_dielectric(&mut self, eta: f32) {
+        self.model = MaterialModel::Dielectric { ior: eta };
         self.base_color = Vec3::ONE;
-        self.metallic = 1.0;
-        self.roughness = 0.0;
+        self.base_color_texture = None;
     }
-}
-
-/// Fresnel reflectance of a conductor at normal incidence: ((η−1)² + k²) / ((η+1)² + k²).
-fn conductor_f0(eta: Vec3, k: Vec3) -> Vec3 {
-    let k2 = k * k;
-    ((eta - Vec3::ONE) * (eta - Vec3::ONE) + k2) / ((eta + Vec3::ONE) * (eta + Vec3::ONE) + k2)
 }

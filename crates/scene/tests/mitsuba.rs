@@ -58,7 +58,7 @@ fn the_shared_cornell_box_loads_with_its_settings() {
     assert_eq!((h.size, h.spp, h.max_depth, h.filter.as_deref()), (Some((256, 256)), Some(128), Some(5), Some("tent")));
     let cam = s.camera.as_ref().unwrap();
     assert!((cam.position - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-6);
-    assert!((cam.fov_y.to_degrees() - 39.3077).abs() < 1e-3, "square film: fov_axis smaller is vertical");
+    assert!((cam.fov.to_degrees() - 39.3077).abs() < 1e-3, "square film: fov_axis smaller is vertical");
     let emissive: Vec<_> = s.materials.iter().filter(|m| m.is_emissive()).collect();
     assert_eq!(emissive.len(), 1);
     assert_eq!(emissive[0].emission, Vec3::new(18.387, 13.9873, 6.75357));
@@ -107,7 +107,7 @@ fn defaults_transforms_camera_and_emitters() {
     assert!((cam.position - Vec3::new(1.0, 2.0, 3.0)).length() < 1e-6);
     assert!(((cam.target - cam.position).normalize() - Vec3::new(0.0, 0.0, -1.0)).length() < 1e-6);
     // fov 90 along x (the default axis) at 2:1 → tan(fov_y/2) = 1/2.
-    assert!(((cam.fov_y * 0.5).tan() - 0.5).abs() < 1e-5, "{}", cam.fov_y.to_degrees());
+    assert!(((cam.fov * 0.5).tan() - 0.5).abs() < 1e-5, "{}", cam.fov.to_degrees());
     assert!(s.warnings.iter().any(|w| w.contains("fov_axis 'x' converted")), "{:?}", s.warnings);
     // The rectangle: [-1,1]² scaled (2, 3), turned to face +y, lifted by 1 → x ∈ ±2, z ∈ ±3, y = 1.
     let m = s.instances[0].motion.at(0.0);
