@@ -6,6 +6,7 @@ mod bench_cmd;
 mod eval_cmd;
 mod play_cmd;
 mod render_cmd;
+mod scene_args;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -13,6 +14,9 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "glimpse", version, about = "Fast approximate visibility and global illumination, measured against exact ray tracing")]
 struct Cli {
+    /// Worker threads for every parallel loop (rayon's global pool); 0 uses every core.
+    #[arg(long, global = true, default_value_t = 0)]
+    threads: usize,
     #[command(subcommand)]
     command: Command,
 }
@@ -38,7 +42,7 @@ enum Command {
 
 fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
+    let result = scene_args::set_threads(cli.threads).and_then(|()| match cli.command {
         Command::Demo(a) => eval_cmd::demo(a),
         Command::Render(a) => render_cmd::run(a),
         Command::Eval(a) => eval_cmd::run(a),
@@ -57,7 +61,7 @@ fn main() -> ExitCode {
             }
             Ok(())
         }
-    };
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
