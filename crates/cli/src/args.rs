@@ -40,8 +40,68 @@ pub fn check_output(path: &Path) -> Result<()> {
     if !matches!(ext.as_deref(), Some("png" | "exr" | "hdr")) {
         bail!("{}: the output must end in .png, .exr or .hdr", path.display());
     }
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
+    check_writable(dir)
+}
+
+/// Fails now, before any work, if files cannot be created in `dir` (a probe file is written and
+/// removed).
+pub fn check_writable(dir: &Path) -> Result<()> {
+    let probe = dir.join(format!(".glimpse-write-probe-{}", std::process::id()));
+    std::fs::write(&probe, b"").with_context(|| format!("{}: the output directory is not writable", dir.display()))?;
+    let _ = std::fs::remove_file(&probe);
+    Ok(())
+}
+
+/// Edit distance (Levenshtein) between two names, for "did you mean".
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut row: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut prev = row[0];
+        row[0] = i + 1;
+        for (j, cb) in b.iter().enumerate() {
+            let cur = row[j + 1];
+            row[j + 1] = (prev + usize::from(ca != *cb)).min(row[j] + 1).min(cur + 1);
+            prev = cur;
+        }
+    }
+    row[b.len()]
+}
+
+/// The closest of `known` to `name` when it is a plausible typo (at most a third of its letters
+/// off, and at least 1), as " (did you mean 'x'?)", else "".
+pub fn did_you_mean<'a>(name: &str, known: impl IntoIterator<Item = &'a str>) -> String {
+    let limit = (name.chars().count() / 3).max(1);
+    known
+        .into_iter()
+        .map(|k| (edit_distance(name, k), k))
+        .filter(|(d, _)| *d <= limit)
+        .min()
+        .map(|(_, k)| format!(" (did you mean '{k}'?)"))
+        .unwrap_or_default()
+}
+
+/// Rejects an unknown technique id with the closest known one.
+pub fn check_technique(id: &str) -> Result<()> {
+    let registry = glimpse_eval::registry();
+    if let Err(e) = registry.get(id) {
+        bail!("{e}{}", did_you_mean(id, registry.all().iter().map(|t| t.id)));
+    }
+    Ok(())
+}
+
+/// Rejects a scene that is neither a built-in name nor a path with a file extension, suggesting
+/// the closest built-in.
+pub fn check_scene(spec: &str) -> Result<()> {
+    let has_ext = Path::new(spec).extension().is_some();
+    if !has_ext && !glimpse_scene::builtin::NAMES.contains(&spec) {
+        bail!(
+            "unknown scene '{spec}'{}; built-in scenes: {} (or give a .gltf, .glb, .obj or .toml file)",
+            did_you_mean(spec, glimpse_scene::builtin::NAMES.iter().copied()),
+            glimpse_scene::builtin::NAMES.join(", ")
+        );
     }
     Ok(())
 }
@@ -58,5 +118,14 @@ mod tests {
         assert!(parse_size("abc").unwrap_err().contains("WIDTHxHEIGHT"));
         assert!(parse_spp("0").is_err() && parse_spp("99999999").is_err() && parse_spp("-1").is_err());
         assert!(parse_time("nan").is_err() && parse_time("inf").is_err() && parse_time("1.5").is_ok());
+    }
+
+    #[test]
+    fn did_you_mean_finds_close_names_only() {
+        assert_eq!(edit_distance("cornel", "cornell"), 1);
+        assert_eq!(edit_distance("ao-roam", "ao-roma"), 2);
+        assert_eq!(did_you_mean("cornel", ["cornell", "sky"]), " (did you mean 'cornell'?)");
+        assert_eq!(did_you_mean("ao-roam", ["ao-roma", "ao-exact"]), " (did you mean 'ao-roma'?)");
+        assert_eq!(did_you_mean("zzz", ["cornell", "sky"]), "");
     }
 }

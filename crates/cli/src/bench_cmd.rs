@@ -43,6 +43,18 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
     if a.radius.is_nan() || a.radius <= 0.0 {
         anyhow::bail!("--radius {}: must be positive", a.radius);
     }
+    // A typo in --only would otherwise benchmark `exact` alone and exit 0.
+    let known: Vec<&str> = glimpse_eval::bench::backends().iter().map(|b| b.name).collect();
+    for name in &a.only {
+        if !known.contains(&name.as_str()) {
+            anyhow::bail!(
+                "--only {name}: unknown backend{}; known: {}",
+                crate::args::did_you_mean(name, known.iter().copied()),
+                known.join(", ")
+            );
+        }
+    }
+    crate::args::check_scene(&a.scene)?;
     let cfg = BenchConfig {
         scene_spec: a.scene,
         kind: RayKind::parse(&a.kind)?,

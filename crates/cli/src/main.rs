@@ -8,6 +8,7 @@ mod exit;
 mod play_cmd;
 mod render_cmd;
 mod suite_cmd;
+mod scene_args;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -15,6 +16,9 @@ use std::process::ExitCode;
 #[derive(Parser)]
 #[command(name = "glimpse", version, about = "Fast approximate visibility and global illumination, measured against exact ray tracing")]
 struct Cli {
+    /// Worker threads for every parallel loop (rayon's global pool); 0 uses every core.
+    #[arg(long, global = true, default_value_t = 0)]
+    threads: usize,
     #[command(subcommand)]
     command: Command,
     /// Memory budget, e.g. 8G or 512M: work estimated to need more is refused up front (default:
@@ -60,7 +64,7 @@ fn main() -> ExitCode {
         eprintln!("error: {e}");
         return ExitCode::FAILURE;
     }
-    let result = match cli.command {
+    let result = scene_args::set_threads(cli.threads).and_then(|()| match cli.command {
         Command::Demo(a) => eval_cmd::demo(a),
         Command::Render(a) => render_cmd::run(a),
         Command::Eval(a) => eval_cmd::run(a),
@@ -80,7 +84,7 @@ fn main() -> ExitCode {
             }
             Ok(())
         }
-    };
+    });
     match result {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

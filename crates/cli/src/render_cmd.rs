@@ -1,7 +1,8 @@
 //! `glimpse render SCENE -t ID -o OUT`: one image, with a progress bar for long renders and a
 //! summary line.
 
-use crate::args::{check_output, parse_size, parse_spp, parse_time};
+use crate::args::{check_output, check_scene, check_technique, parse_size, parse_spp, parse_time};
+use crate::scene_args::SceneArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use glimpse_core::ToneMap;
@@ -36,6 +37,8 @@ pub struct RenderArgs {
     /// Output image: .png (tone-mapped sRGB), .exr or .hdr (linear).
     #[arg(short, long)]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub overrides: SceneArgs,
 }
 
 pub fn run(a: RenderArgs) -> Result<()> {
@@ -43,12 +46,14 @@ pub fn run(a: RenderArgs) -> Result<()> {
     if !a.exposure.is_finite() || a.exposure.abs() > 64.0 {
         anyhow::bail!("--exposure {}: must be a finite number of stops within ±64", a.exposure);
     }
+    check_technique(&a.technique)?;
+    check_scene(&a.scene)?;
     let registry = glimpse_eval::registry();
-    registry.get(&a.technique)?;
-    let scene = glimpse_scene::load(&a.scene)?;
+    let mut scene = glimpse_scene::load(&a.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");
     }
+    a.overrides.apply(&mut scene)?;
     // A scene file's own settings (Mitsuba's film, sampler, integrator) stand in for flags not given.
     let hints = &scene.render_hints;
     let (width, height) = a.size.or(hints.size).unwrap_or((512, 512));
@@ -74,16 +79,21 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let total_ms = total.ms();
 
     image.write(&a.output, ToneMap { exposure: a.exposure }).context("writing the image")?;
-    let mrays = render.rays as f64 / (render.total_ms().max(1e-9) * 1e3);
+    // A "ray" is whatever the technique counts as one visibility query; a technique that traces
+    // none (wavecache reads a cache) gets no figure rather than a meaningless 0.00.
+    let throughput = match render.rays {
+        0 => "no rays traced".to_owned(),
+        rays => format!("{:.2} Mrays/s (visibility queries during render)", rays as f64 / (render.total_ms().max(1e-9) * 1e3)),
+    };
     println!(
-        "{} on {} at {width}x{height}, {} spp: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {:.2} Mrays/s -> {}",
+        "{} on {} at {width}x{height}, {} spp: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {} -> {}",
         a.technique,
         a.scene,
         spp,
         prepare.total_ms(),
         render.total_ms(),
         total_ms,
-        mrays,
+        throughput,
         a.output.display()
     );
     Ok(())

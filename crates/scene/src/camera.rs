@@ -51,13 +51,21 @@ impl Camera {
     /// A camera on the +z side of the box, slightly above, looking at its centre from far enough
     /// that the bounding sphere fills the view.
     pub fn framing(bounds: Aabb, aspect: f32) -> Self {
+        Self::framing_from(bounds, aspect, Vec3::new(0.0, 0.25, 1.0))
+    }
+
+    /// A camera in direction `dir` from the box's centre (outside its bounding sphere), looking
+    /// at the centre, far enough that the bounding sphere fills the view.
+    pub fn framing_from(bounds: Aabb, aspect: f32, dir: Vec3) -> Self {
         let fov_y = 45f32.to_radians();
         let center = bounds.center();
         let radius = (bounds.extent().length() * 0.5).max(1e-3);
         let half = (fov_y * 0.5).min((fov_y * 0.5).tan().atan2(1.0 / aspect.max(1e-3)).max(1e-3));
         let distance = radius / half.sin();
-        let dir = Vec3::new(0.0, 0.25, 1.0).normalize();
-        Self::vertical(center + dir * distance, center, Vec3::Y, fov_y)
+        let dir = dir.normalize_or(Vec3::Z);
+        // Straight up or down would make `up` parallel to the view direction.
+        let up = if dir.cross(Vec3::Y).length() < 1e-3 { Vec3::Z } else { Vec3::Y };
+        Self::vertical(center + dir * distance, center, up, fov_y)
     }
 
     /// The primary ray through continuous pixel coordinates `(px, py)` of a `width × height` image.

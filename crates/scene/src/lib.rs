@@ -7,6 +7,7 @@
 //! ([`toml_loader`]), Mitsuba 3 XML ([`mitsuba_loader`]), PLY ([`ply_loader`]), and the built-in scenes ([`builtin`]). [`load`] picks by name or extension.
 
 pub mod animation;
+pub mod auto;
 pub mod builtin;
 pub mod camera;
 pub mod environment;

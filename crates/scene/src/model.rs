@@ -202,6 +202,6 @@ impl Scene {
     }
 
     pub fn camera_or_default(&self, aspect: f32) -> Camera {
-        self.camera.clone().unwrap_or_else(|| Camera::framing(self.bounds(), aspect))
+        self.camera.clone().unwrap_or_else(|| crate::auto::camera(self, aspect))
     }
 }

@@ -1,0 +1,155 @@
+//! Scene overrides shared by the commands that take a scene: an environment, a sun, point
+//! lights and a camera given on the command line, then the default light for a scene that still
+//! has none (see `glimpse_scene::auto`).
+
+use anyhow::{Context, Result, bail};
+use clap::Args;
+use glimpse_core::{Image, Vec3};
+use glimpse_scene::{Camera, Environment, Light, Scene};
+use std::path::PathBuf;
+
+#[derive(Args, Clone, Debug, Default)]
+pub struct SceneArgs {
+    /// Environment map (equirectangular .hdr or .exr, +y up) replacing the scene's.
+    #[arg(long, value_name = "FILE")]
+    pub env: Option<PathBuf>,
+    /// Multiplies the --env map.
+    #[arg(long, default_value_t = 1.0, value_name = "S", allow_negative_numbers = true)]
+    pub env_scale: f32,
+    /// Adds a sun: a directional light coming FROM direction x,y,z (e.g. 1,2,1).
+    #[arg(long, value_name = "X,Y,Z", value_parser = parse_direction)]
+    pub sun: Option<Vec3>,
+    /// The sun's irradiance (W/m², white) on a surface facing it.
+    #[arg(long, default_value_t = 3.0, value_name = "R")]
+    pub sun_radiance: f32,
+    /// Adds a point light: point:X,Y,Z:INTENSITY (W/sr, white); repeatable.
+    #[arg(long = "light", value_name = "point:X,Y,Z:I", value_parser = parse_light)]
+    pub lights: Vec<Light>,
+    /// Replaces the camera: pos=X,Y,Z:target=X,Y,Z[:fov=DEGREES] (vertical field of view, default 45).
+    #[arg(long, value_name = "pos=X,Y,Z:target=X,Y,Z[:fov=DEG]", value_parser = parse_camera)]
+    pub camera: Option<Camera>,
+}
+
+impl SceneArgs {
+    /// Applies the overrides, then the default light if the scene still has none (said on stderr).
+    pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if !(self.env_scale.is_finite() && self.env_scale >= 0.0) {
+            bail!("--env-scale {}: must be a finite number ≥ 0", self.env_scale);
+        }
+        if !(self.sun_radiance.is_finite() && self.sun_radiance >= 0.0) {
+            bail!("--sun-radiance {}: must be a finite number ≥ 0", self.sun_radiance);
+        }
+        if let Some(path) = &self.env {
+            let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+            if !matches!(ext.as_deref(), Some("hdr" | "exr")) {
+                bail!("--env {}: the environment map must be a .hdr or .exr file", path.display());
+            }
+            let image = Image::read(path).with_context(|| format!("--env {}", path.display()))?;
+            scene.environment = Some(Environment::new(image, self.env_scale));
+        }
+        if let Some(dir) = self.sun {
+            // The light travels away from the sun.
+            scene.lights.push(Light::directional(-dir, Vec3::splat(self.sun_radiance)));
+        }
+        scene.lights.extend(self.lights.iter().cloned());
+        if let Some(camera) = &self.camera {
+            scene.camera = Some(camera.clone());
+        }
+        if glimpse_scene::auto::ensure_light(scene) {
+            eprintln!("note: {}", glimpse_scene::auto::DEFAULT_LIGHT_NOTE);
+        }
+        Ok(())
+    }
+}
+
+/// `x,y,z`, finite.
+pub fn parse_vec3(s: &str) -> Result<Vec3, String> {
+    let v: Vec<f32> = s
+        .split(',')
+        .map(|c| c.trim().parse::<f32>())
+        .collect::<Result<_, _>>()
+        .map_err(|_| format!("'{s}' is not x,y,z (three numbers)"))?;
+    match v[..] {
+        [x, y, z] if v.iter().all(|c| c.is_finite()) => Ok(Vec3::new(x, y, z)),
+        _ => Err(format!("'{s}' is not x,y,z (three finite numbers)")),
+    }
+}
+
+fn nonzero(v: Vec3, s: &str) -> Result<Vec3, String> {
+    if v.length() > 0.0 { Ok(v) } else { Err(format!("'{s}': the direction must not be zero")) }
+}
+
+/// A non-zero `x,y,z` direction.
+pub fn parse_direction(s: &str) -> Result<Vec3, String> {
+    nonzero(parse_vec3(s)?, s)
+}
+
+/// `point:X,Y,Z:INTENSITY`.
+pub fn parse_light(s: &str) -> Result<Light, String> {
+    let parts: Vec<&str> = s.split(':').collect();
+    let [kind, pos, intensity] = parts[..] else {
+        return Err(format!("'{s}' is not point:X,Y,Z:INTENSITY"));
+    };
+    if kind != "point" {
+        return Err(format!("'{s}': unknown light kind '{kind}' (only 'point'; use --sun for a directional light)"));
+    }
+    let i: f32 = intensity.parse().map_err(|_| format!("'{s}': intensity '{intensity}' is not a number"))?;
+    if !(i.is_finite() && i >= 0.0) {
+        return Err(format!("'{s}': intensity must be a finite number ≥ 0"));
+    }
+    Ok(Light::point(parse_vec3(pos)?, Vec3::splat(i)))
+}
+
+/// `pos=X,Y,Z:target=X,Y,Z[:fov=DEG]`.
+pub fn parse_camera(s: &str) -> Result<Camera, String> {
+    let (mut pos, mut target, mut fov) = (None, None, 45.0f32);
+    for part in s.split(':') {
+        let (key, value) = part.split_once('=').ok_or_else(|| format!("'{s}': '{part}' is not KEY=VALUE (pos, target, fov)"))?;
+        match key {
+            "pos" => pos = Some(parse_vec3(value)?),
+            "target" => target = Some(parse_vec3(value)?),
+            "fov" => fov = value.parse().map_err(|_| format!("'{s}': fov '{value}' is not a number of degrees"))?,
+            other => return Err(format!("'{s}': unknown camera key '{other}' (pos, target, fov)")),
+        }
+    }
+    let (Some(pos), Some(target)) = (pos, target) else {
+        return Err(format!("'{s}': the camera needs pos=X,Y,Z and target=X,Y,Z"));
+    };
+    if !(fov > 0.0 && fov < 180.0) {
+        return Err(format!("'{s}': fov must lie strictly between 0 and 180 degrees"));
+    }
+    nonzero(target - pos, s).map_err(|_| format!("'{s}': pos and target must differ"))?;
+    if (target - pos).normalize().cross(Vec3::Y).length() < 1e-4 {
+        return Err(format!("'{s}': the camera looks straight up or down; tilt the target a little"));
+    }
+    Ok(Camera::look_at(pos, target, Vec3::Y, fov))
+}
+
+/// Sets the size of rayon's global pool (`--threads N`); 0 keeps rayon's default (all cores).
+pub fn set_threads(n: usize) -> Result<()> {
+    if n > 0 {
+        rayon::ThreadPoolBuilder::new().num_threads(n).build_global().context("--threads: setting up the thread pool")?;
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn overrides_parse_and_reject_bad_values() {
+        assert_eq!(parse_vec3("1, 2,3"), Ok(Vec3::new(1.0, 2.0, 3.0)));
+        assert!(parse_vec3("1,2").is_err() && parse_vec3("1,2,nan").is_err());
+        let l = parse_light("point:0,1,0:5").unwrap();
+        assert_eq!((l.position, l.intensity), (Vec3::Y, Vec3::splat(5.0)));
+        assert!(parse_light("spot:0,1,0:5").unwrap_err().contains("unknown light kind"));
+        assert!(parse_light("point:0,1,0:-1").is_err());
+        let c = parse_camera("pos=0,1,5:target=0,1,0:fov=30").unwrap();
+        assert!((c.fov_y - 30f32.to_radians()).abs() < 1e-6 && c.position == Vec3::new(0.0, 1.0, 5.0));
+        assert!(parse_camera("pos=0,1,5").unwrap_err().contains("needs pos"));
+        assert!(parse_camera("pos=0,1,5:target=0,1,5").unwrap_err().contains("differ"));
+        assert!(parse_camera("pos=0,1,5:target=0,0,0:fov=200").is_err());
+        assert!(parse_camera("pos=0,1,5:look=0,0,0").unwrap_err().contains("unknown camera key"));
+    }
+}
