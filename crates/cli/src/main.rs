@@ -7,8 +7,8 @@ mod eval_cmd;
 mod exit;
 mod play_cmd;
 mod render_cmd;
-mod suite_cmd;
 mod scene_args;
+mod suite_cmd;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;

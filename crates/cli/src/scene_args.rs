@@ -146,7 +146,7 @@ mod tests {
         assert!(parse_light("spot:0,1,0:5").unwrap_err().contains("unknown light kind"));
         assert!(parse_light("point:0,1,0:-1").is_err());
         let c = parse_camera("pos=0,1,5:target=0,1,0:fov=30").unwrap();
-        assert!((c.fov_y - 30f32.to_radians()).abs() < 1e-6 && c.position == Vec3::new(0.0, 1.0, 5.0));
+        assert!((c.fov - 30f32.to_radians()).abs() < 1e-6 && c.position == Vec3::new(0.0, 1.0, 5.0));
         assert!(parse_camera("pos=0,1,5").unwrap_err().contains("needs pos"));
         assert!(parse_camera("pos=0,1,5:target=0,1,5").unwrap_err().contains("differ"));
         assert!(parse_camera("pos=0,1,5:target=0,0,0:fov=200").is_err());

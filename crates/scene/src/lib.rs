@@ -19,8 +19,8 @@ pub mod mitsuba_loader;
 pub mod model;
 pub mod obj_loader;
 pub mod ply_loader;
-pub mod render_hints;
 pub mod procedural;
+pub mod render_hints;
 pub mod toml_loader;
 pub mod validate;
 
