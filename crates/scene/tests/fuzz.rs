@@ -10,7 +10,6 @@
 //!
 //! Cases per target: `GLIMPSE_FUZZ_CASES` (default 1000; the cargo-fuzz targets in `fuzz/` are for
 //! longer runs). The memory budget is 256 MiB, so no mutation can make the test allocate gigabytes.
-//! Mitsuba XML and PLY loaders: add their seeds and a target here when they land (see MITSUBA below).
 
 use glimpse_core::mutate::{self, Mutation};
 use proptest::prelude::*;
@@ -108,8 +107,26 @@ fn fuzz_scene_toml() {
     fuzz("toml", "scene.toml", "fuzz.toml", "fuzz.toml");
 }
 
-// MITSUBA: when the Mitsuba XML and PLY loaders land, add seeds (a small scene.xml and a .ply, ASCII
-// and binary) to tests/corpus and one `fuzz(...)` test per format here.
+#[test]
+fn fuzz_mitsuba_xml() {
+    fuzz("mitsuba", "scene.xml", "fuzz.xml", "fuzz.xml");
+}
+
+/// The binary PLY a Mitsuba scene references, mutated under the scene that loads it.
+#[test]
+fn fuzz_mitsuba_referenced_ply() {
+    fuzz("mitsuba-ply", "quad_le.ply", "quad_le.ply", "scene.xml");
+}
+
+#[test]
+fn fuzz_ply_ascii() {
+    fuzz("ply-ascii", "quad.ply", "fuzz.ply", "fuzz.ply");
+}
+
+#[test]
+fn fuzz_ply_binary() {
+    fuzz("ply-binary", "quad_le.ply", "fuzz_le.ply", "fuzz_le.ply");
+}
 
 /// Every file in `tests/corpus/regressions/` loads or fails cleanly, never panics or runs away.
 #[test]
