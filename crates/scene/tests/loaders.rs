@@ -10,34 +10,8 @@ fn crate_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
-/// `../shared/scenes` beside the repository, or `None` (printing why) when it is not there.
-fn shared_scenes() -> Option<PathBuf> {
-    let dir = crate_dir().join("../../../shared/scenes");
-    if let Ok(dir) = dir.canonicalize() {
-        Some(dir)
-    } else {
-        println!("skipped: ../shared/scenes not found");
-        None
-    }
-}
-
-/// A fresh scratch folder per test.
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-loaders-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, content: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, content).unwrap();
-    p
-}
-
-fn load(path: &Path) -> Result<Scene, SceneError> {
-    glimpse_scene::load(path.to_str().unwrap())
-}
+mod common;
+use common::{load, scratch, shared_scenes, write};
 
 fn load_err(path: &Path) -> String {
     match load(path) {

@@ -3,36 +3,11 @@
 //! error checked to be one line naming the file, the line and the element.
 
 use glimpse_core::{Vec2, Vec3};
-use glimpse_scene::{LightKind, Scene, SceneError};
-use std::path::{Path, PathBuf};
+use glimpse_scene::LightKind;
+use std::path::Path;
 
-fn shared_scenes() -> Option<PathBuf> {
-    let dir = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
-    match dir.canonicalize() {
-        Ok(d) => Some(d),
-        Err(_) => {
-            println!("skipped: ../shared/scenes not found");
-            None
-        }
-    }
-}
-
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-mitsuba-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, content: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, content).unwrap();
-    p
-}
-
-fn load(path: &Path) -> Result<Scene, SceneError> {
-    glimpse_scene::load(path.to_str().unwrap())
-}
+mod common;
+use common::{load, scratch, shared_scenes, write};
 
 /// A scene file around `body`.
 fn xml(body: &str) -> String {

@@ -3,20 +3,10 @@
 //! naming the file and the limit; degenerate animation and camera values are errors.
 
 use glimpse_scene::SceneError;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
-fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-robust-scene-{}-{test}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
-
-fn write(dir: &Path, name: &str, content: impl AsRef<[u8]>) -> PathBuf {
-    let p = dir.join(name);
-    std::fs::write(&p, content).unwrap();
-    p
-}
+mod common;
+use common::{scratch, write};
 
 fn load(path: &Path) -> Result<glimpse_scene::Scene, SceneError> {
     glimpse_scene::load(path.to_str().unwrap())
