@@ -200,7 +200,10 @@ fn gltf_buffer() -> Vec<u8> {
 
 /// A 2×1 PNG: left pixel linear (0.5, 0, 0), right (0, 0, 0.5), stored sRGB-encoded.
 fn png_bytes() -> Vec<u8> {
-    let path = scratch("png").join("tex.png");
+    // One folder per calling thread: tests run in parallel and `scratch` empties its folder, which
+    // would pull it from under another test's write.
+    let thread = format!("{:?}", std::thread::current().id()).replace(|c: char| !c.is_ascii_alphanumeric(), "");
+    let path = scratch(&format!("png-{thread}")).join("tex.png");
     Image::from_fn(2, 1, |x, _| if x == 0 { Vec3::new(0.5, 0.0, 0.0) } else { Vec3::new(0.0, 0.0, 0.5) })
         .write(&path, ToneMap::default())
         .unwrap();
