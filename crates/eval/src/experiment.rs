@@ -117,9 +117,10 @@ pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &
 /// here (the accumulation a renderer would apply). The stats are the last frame's: the steady
 /// per-frame cost.
 pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuffer: &GBuffer, frames: u32) -> Result<Rendered> {
+    let frames = frames.max(1);
     let mut sum: Option<Image> = None;
     let mut last = None;
-    for i in 0..frames.max(1) {
+    for i in 0..frames {
         ctx.frame_index = i;
         let r = render_once(technique, ctx, gbuffer);
         ctx.frame_index = 0;
@@ -133,8 +134,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
     }
     let mut r = last.expect("at least one frame is rendered");
     if let Some(total) = sum {
-        let n = frames.max(1) as f32;
-        r.image.pixels = total.pixels.into_iter().map(|p| p / n).collect();
+        r.image.pixels = total.pixels.into_iter().map(|p| p / frames as f32).collect();
     }
     Ok(r)
 }
@@ -190,6 +190,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     };
 
     let mut references: BTreeMap<(String, u64), (Image, bool, String)> = BTreeMap::new();
+    let mut reference_times: BTreeMap<String, f64> = BTreeMap::new();
     let mut runs = Vec::new();
     for id in &ids {
         let info = registry.get(id)?;
@@ -235,12 +236,18 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         let r = render_frames(technique.as_mut(), &mut ctx, &gbuffer, cfg.frames)?;
         let faults = crate::suite::PixelFaults::count(&r.image, reference);
         let metrics = Metrics::compute(&r.image, reference)?;
-        let reference_ms = if cfg.time_reference && info.reference.is_some() {
-            let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
-            let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
-            Some(t.prepare.total_ms() + t.render.total_ms())
-        } else {
-            None
+        // Every technique of one eval shares spp, seed and parameters, so a reference is timed
+        // once and its time serves each technique compared with it.
+        let reference_ms = match reference_times.get(&ref_id) {
+            _ if !cfg.time_reference || info.reference.is_none() => None,
+            Some(&ms) => Some(ms),
+            None => {
+                let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
+                let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
+                let ms = t.prepare.total_ms() + t.render.total_ms();
+                reference_times.insert(ref_id.clone(), ms);
+                Some(ms)
+            }
         };
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());

@@ -37,35 +37,36 @@ impl<R: Row> Array<R> {
     /// `out[k] = self.occluded_segment(segments[k].0, segments[k].1)` for every `k`.
     pub fn occluded_segments(&self, segments: &[(Vec3, Vec3)], out: &mut [bool]) {
         assert_eq!(segments.len(), out.len(), "occluded_segments: one answer per segment");
-        for (segs, out) in segments.chunks(LANES).zip(out.chunks_mut(LANES)) {
-            let mut extents = [None; LANES];
-            for (x, &(a, b)) in extents.iter_mut().zip(segs) {
-                *x = query::extent(&self.grid, &self.dirs, a, b, self.bias_start_cells, self.bias_end_cells);
-            }
-            let rows = self.fetch_rows(&extents[..segs.len()]);
-            for ((o, x), row) in out.iter_mut().zip(&extents).zip(rows) {
-                *o = x.is_some_and(|x| query::clip_hits(row, x.s, x.e));
-            }
-        }
+        self.occluded_lanes(segments, out, |&(a, b)| (a, b), |row, x| query::clip_hits(row, x.s, x.e));
     }
 
     /// The batched form of the `Visibility` query (the ray's segment, the along-row bias and,
     /// with `skip_start_run`, the start run ignored).
     pub(crate) fn occluded_rays(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
         assert_eq!(rays.len(), out.len(), "occluded_batch: one answer per ray");
-        for (rays, out) in rays.chunks(LANES).zip(out.chunks_mut(LANES)) {
+        self.occluded_lanes(
+            rays,
+            out,
+            |(ray, t_max)| self.segment(ray, *t_max),
+            |row, x| {
+                if self.skip_start_run { query::clip_hits_after_start_run(row, x) } else { query::clip_hits(row, x.s, x.e) }
+            },
+        );
+    }
+
+    /// The three passes over lanes of `LANES` queries: every lane's extent (`segment` gives its
+    /// world-space segment), then the rows fetched together, then `hits` per lane with an extent.
+    #[inline]
+    fn occluded_lanes<T>(&self, queries: &[T], out: &mut [bool], segment: impl Fn(&T) -> (Vec3, Vec3), hits: impl Fn(R, &Extent) -> bool) {
+        for (queries, out) in queries.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let mut extents = [None; LANES];
-            for (x, (ray, t_max)) in extents.iter_mut().zip(rays) {
-                let (a, b) = self.segment(ray, *t_max);
+            for (x, q) in extents.iter_mut().zip(queries) {
+                let (a, b) = segment(q);
                 *x = query::extent(&self.grid, &self.dirs, a, b, self.bias_start_cells, self.bias_end_cells);
             }
-            let rows = self.fetch_rows(&extents[..rays.len()]);
+            let rows = self.fetch_rows(&extents[..queries.len()]);
             for ((o, x), row) in out.iter_mut().zip(&extents).zip(rows) {
-                *o = match x {
-                    Some(x) if self.skip_start_run => query::clip_hits_after_start_run(row, x),
-                    Some(x) => query::clip_hits(row, x.s, x.e),
-                    None => false,
-                };
+                *o = x.as_ref().is_some_and(|x| hits(row, x));
             }
         }
     }

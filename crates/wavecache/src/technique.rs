@@ -154,6 +154,20 @@ pub struct ShadePoint {
     pub instance: u32,
 }
 
+impl ShadePoint {
+    /// The surface a GBuffer pixel sees.
+    pub fn at_pixel(g: &GBuffer, i: usize) -> Self {
+        Self {
+            position: g.position[i],
+            normal: g.normal[i],
+            shading_normal: g.shading_normal[i],
+            base: g.albedo[i],
+            material: g.material[i],
+            instance: g.instance[i],
+        }
+    }
+}
+
 impl<'a> Runtime<'a> {
     pub fn new(
         cache: &'a WaveCache,
@@ -369,15 +383,7 @@ impl Technique for Wavecache {
         let rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
         stats.rays = stats.time("shade", || {
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng: &mut Rng| {
-                let s = ShadePoint {
-                    position: gbuffer.position[i],
-                    normal: gbuffer.normal[i],
-                    shading_normal: gbuffer.shading_normal[i],
-                    base: gbuffer.albedo[i],
-                    material: gbuffer.material[i],
-                    instance: gbuffer.instance[i],
-                };
-                rt.shade(&s, -gbuffer.view_dir[i], 0)
+                rt.shade(&ShadePoint::at_pixel(gbuffer, i), -gbuffer.view_dir[i], 0)
             })
         })?;
         Ok(stats)

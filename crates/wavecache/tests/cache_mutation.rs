@@ -43,17 +43,7 @@ fn shade_all(cache: &WaveCache, p: &WavecacheParams, ctx: &FrameContext, g: &GBu
     let rt = Runtime::new(cache, p, &ctx.frame, &ctx.tracer);
     (0..g.position.len())
         .filter(|&i| g.instance[i] != glimpse_trace::gbuffer::NO_HIT)
-        .map(|i| {
-            let s = ShadePoint {
-                position: g.position[i],
-                normal: g.normal[i],
-                shading_normal: g.shading_normal[i],
-                base: g.albedo[i],
-                material: g.material[i],
-                instance: g.instance[i],
-            };
-            rt.shade(&s, -g.view_dir[i], 0).0
-        })
+        .map(|i| rt.shade(&ShadePoint::at_pixel(g, i), -g.view_dir[i], 0).0)
         .collect()
 }
 
