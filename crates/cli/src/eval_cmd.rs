@@ -40,6 +40,10 @@ pub struct EvalArgs {
     /// light cuts) are judged after N frames of accumulation; timings are per frame.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub frames: u32,
+    /// Pixel filter the primary samples are drawn from: box (default), tent, gaussian or
+    /// pixel-centre (overrides the scene's). With --frames N each frame shades the next sample.
+    #[arg(long, value_name = "FILTER", value_parser = |s: &str| glimpse_scene::Filter::from_name(s))]
+    pub filter: Option<glimpse_scene::Filter>,
     /// Output directory (report.html, results.json, images).
     #[arg(short, long)]
     pub output: PathBuf,
@@ -69,6 +73,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         sweep: !a.no_sweep,
         exposure: a.exposure,
         frames: a.frames,
+        filter: a.filter,
         time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
@@ -95,6 +100,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         sweep: true,
         exposure: 0.0,
         frames: 1,
+        filter: None,
         time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)

@@ -71,11 +71,9 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let mut technique = registry.create(&a.technique, &scene, &settings, &params)?;
 
     let total = Stopwatch::start();
-    let ctx = FrameContext::new(&scene, a.time, width, height);
-    let gbuffer = ctx.gbuffer();
+    let mut ctx = FrameContext::new(&scene, a.time, width, height);
     let prepare = technique.prepare(&ctx)?;
-    let mut image = ctx.image();
-    let render = with_progress(&ctx, || technique.render(&ctx, &gbuffer, &mut image))?;
+    let (image, render) = render_film(technique.as_mut(), &mut ctx)?;
     let total_ms = total.ms();
 
     image.write(&a.output, ToneMap { exposure: a.exposure }).context("writing the image")?;
@@ -86,10 +84,12 @@ pub fn run(a: RenderArgs) -> Result<()> {
         rays => format!("{:.2} Mrays/s (visibility queries during render)", rays as f64 / (render.total_ms().max(1e-9) * 1e3)),
     };
     println!(
-        "{} on {} at {width}x{height}, {} spp: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {} -> {}",
+        "{} on {} at {width}x{height}, {} spp, {} filter x {} samples: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {} -> {}",
         a.technique,
         a.scene,
         spp,
+        ctx.film.filter.name(),
+        ctx.film.samples,
         prepare.total_ms(),
         render.total_ms(),
         total_ms,
@@ -97,6 +97,31 @@ pub fn run(a: RenderArgs) -> Result<()> {
         a.output.display()
     );
     Ok(())
+}
+
+/// Renders `ctx.film.samples` passes, pass `p` shading primary sample `p` of every pixel (and
+/// drawing its random numbers as frame `p`), and averages them; a technique that blends its own
+/// history (it times an `accumulate` stage) already returns the average. Returns the image and
+/// the passes' summed stats.
+fn render_film(technique: &mut dyn glimpse_render::Technique, ctx: &mut FrameContext) -> Result<(glimpse_core::Image, glimpse_render::Stats)> {
+    let passes = ctx.film.samples.max(1);
+    let mut sum = ctx.image();
+    let mut stats = glimpse_render::Stats::default();
+    let mut image = ctx.image();
+    for pass in 0..passes {
+        ctx.film_pass = pass;
+        ctx.frame_index = pass;
+        let gbuffer = ctx.gbuffer();
+        let s = with_progress(ctx, || technique.render(ctx, &gbuffer, &mut image))?;
+        let self_accumulating = s.stages.iter().any(|(stage, _)| stage == "accumulate");
+        if self_accumulating || passes == 1 {
+            sum = image.clone();
+        } else {
+            sum.pixels.iter_mut().zip(&image.pixels).for_each(|(t, p)| *t += *p / passes as f32);
+        }
+        stats.merge(s);
+    }
+    Ok((sum, stats))
 }
 
 /// Runs `f`, showing a progress bar of finished pixels if it takes longer than a second.
@@ -111,7 +136,8 @@ pub fn with_progress<T>(ctx: &FrameContext, f: impl FnOnce() -> T) -> T {
             let start = std::time::Instant::now();
             let mut bar: Option<indicatif::ProgressBar> = None;
             while !done.load(std::sync::atomic::Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(50));
+                // Woken early when the work is done, so a short render does not wait out a tick.
+                std::thread::park_timeout(Duration::from_millis(50));
                 if bar.is_none() && start.elapsed() > Duration::from_secs(1) {
                     let b = indicatif::ProgressBar::new(pixels);
                     b.set_style(
@@ -132,6 +158,7 @@ pub fn with_progress<T>(ctx: &FrameContext, f: impl FnOnce() -> T) -> T {
     };
     let out = f();
     done.store(true, std::sync::atomic::Ordering::Relaxed);
+    watcher.thread().unpark();
     let _ = watcher.join();
     out
 }

@@ -10,6 +10,15 @@ use std::path::PathBuf;
 
 #[derive(Args, Clone, Debug, Default)]
 pub struct SceneArgs {
+    /// Pixel filter the primary samples are drawn from: box (default), tent, gaussian or
+    /// pixel-centre (overrides the scene's [film] filter).
+    #[arg(long, value_name = "FILTER", value_parser = parse_filter)]
+    pub filter: Option<glimpse_scene::Filter>,
+    /// Primary samples per pixel: the technique shades this many GBuffers, each with every
+    /// pixel's next filter sample, and the images are averaged (anti-aliasing; overrides the
+    /// scene's [film] samples). `pt --spp` paths are traced per primary sample.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=65536))]
+    pub film_samples: Option<u32>,
     /// Environment map (equirectangular .hdr or .exr, +y up) replacing the scene's.
     #[arg(long, value_name = "FILE")]
     pub env: Option<PathBuf>,
@@ -33,6 +42,12 @@ pub struct SceneArgs {
 impl SceneArgs {
     /// Applies the overrides, then the default light if the scene still has none (said on stderr).
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
+        if let Some(filter) = self.filter {
+            scene.film.filter = filter;
+        }
+        if let Some(n) = self.film_samples {
+            scene.film.samples = n;
+        }
         if !(self.env_scale.is_finite() && self.env_scale >= 0.0) {
             bail!("--env-scale {}: must be a finite number ≥ 0", self.env_scale);
         }
@@ -152,4 +167,8 @@ mod tests {
         assert!(parse_camera("pos=0,1,5:target=0,0,0:fov=200").is_err());
         assert!(parse_camera("pos=0,1,5:look=0,0,0").unwrap_err().contains("unknown camera key"));
     }
+}
+
+fn parse_filter(s: &str) -> Result<glimpse_scene::Filter, String> {
+    glimpse_scene::Filter::from_name(s)
 }

@@ -44,6 +44,8 @@ pub struct EvalConfig {
     /// time: temporal techniques (ROMA, light cuts) are judged after N frames of accumulation, as
     /// they are used. See [`render_frames`].
     pub frames: u32,
+    /// The pixel filter (`--filter`); `None` keeps the scene's (`[film] filter`, box by default).
+    pub filter: Option<glimpse_scene::Filter>,
     /// Also time each reference at the technique's own `spp` and seed (not cached), for the
     /// speed-up over the exact reference on the same GBuffer (`Run::reference_ms`).
     pub time_reference: bool,
@@ -112,18 +114,23 @@ pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &
 }
 
 /// `frames` frames of the same (static) time with frame indices 0..frames, as a renderer uses a
-/// temporal technique. A technique that blends its own history (it times an `accumulate` stage,
-/// as ROMA does) is judged by its last image; for any other technique the frames are averaged
-/// here (the accumulation a renderer would apply). The stats are the last frame's: the steady
-/// per-frame cost.
+/// temporal technique. Frame `i` shades primary sample `i` of every pixel (the film's filter
+/// jitters the GBuffer from frame to frame, as temporal anti-aliasing does; `gbuffer` is frame
+/// 0's), so averaging frames also anti-aliases. A technique that blends its own history (it
+/// times an `accumulate` stage, as ROMA does) is judged by its last image; for any other
+/// technique the frames are averaged here (the accumulation a renderer would apply). The stats
+/// are the last frame's: the steady per-frame cost.
 pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuffer: &GBuffer, frames: u32) -> Result<Rendered> {
     let frames = frames.max(1);
     let mut sum: Option<Image> = None;
     let mut last = None;
     for i in 0..frames {
         ctx.frame_index = i;
-        let r = render_once(technique, ctx, gbuffer);
+        ctx.film_pass = i;
+        let jittered = (i > 0 && ctx.film.filter != glimpse_scene::Filter::PixelCentre).then(|| ctx.gbuffer());
+        let r = render_once(technique, ctx, jittered.as_ref().unwrap_or(gbuffer));
         ctx.frame_index = 0;
+        ctx.film_pass = 0;
         let r = r?;
         let self_accumulating = r.render.stages.iter().any(|(stage, _)| stage == "accumulate");
         if !self_accumulating {
@@ -179,6 +186,10 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
 
     let sw = Stopwatch::start();
     let mut ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
+    if let Some(filter) = cfg.filter {
+        ctx.film.filter = filter;
+    }
+    let frames = cfg.frames.max(1);
     let gbuffer = ctx.gbuffer();
     let gbuffer_ms = sw.ms();
     let tone = ToneMap { exposure: cfg.exposure };
@@ -201,7 +212,9 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         let ref_seed = if info.reference.is_some() { cfg.seed } else { cfg.seed.wrapping_add(0x5eed) };
         let ref_key = (ref_id.clone(), ref_seed);
         if !references.contains_key(&ref_key) {
-            let ref_settings = Settings { spp: cfg.ref_spp, seed: ref_seed };
+            // Over several frames the reference shades the same primary samples as the
+            // technique (one pass per frame), its samples shared out among the passes.
+            let ref_settings = Settings { spp: cfg.ref_spp.div_ceil(frames), seed: ref_seed };
             let ref_params = Params::parse(&cfg.params)?;
             let mut reference = (registry.get(&ref_id)?.create)(&scene, &ref_settings, &ref_params)?;
             let effective = format!("{:?}", ref_params.effective());
@@ -213,6 +226,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                     &cfg.ref_spp.to_string(),
                     &ref_settings.seed.to_string(),
                     &cfg.time.to_string(),
+                    &format!("film {} x{frames}", ctx.film.filter.name()),
                 ],
                 &cfg.scene_spec,
             );
@@ -220,7 +234,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                 Some(img) if img.width == cfg.width && img.height == cfg.height => (img, true),
                 _ => {
                     log(&format!("rendering reference {ref_id} at {} spp", cfg.ref_spp));
-                    let r = render_once(reference.as_mut(), &ctx, &gbuffer)?;
+                    let r = render_frames(reference.as_mut(), &mut ctx, &gbuffer, frames)?;
                     cfg.cache.store(&key, &r.image);
                     (r.image, false)
                 }

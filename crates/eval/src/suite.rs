@@ -302,6 +302,7 @@ pub fn run_suite(cfg: &SuiteConfig, registry: &Registry, mut log: impl FnMut(&st
                 sweep: false,
                 exposure: 0.0,
                 frames,
+                filter: None,
                 time_reference: true,
             };
             let results =

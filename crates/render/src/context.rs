@@ -2,7 +2,7 @@
 //! over it, the camera and the image size.
 
 use glimpse_core::Image;
-use glimpse_scene::{Camera, Scene, SceneFrame};
+use glimpse_scene::{Camera, Film, Scene, SceneFrame};
 use glimpse_trace::{ExactTracer, GBuffer};
 
 pub struct FrameContext<'a> {
@@ -14,6 +14,10 @@ pub struct FrameContext<'a> {
     /// Index of this frame in an animation (temporal techniques re-draw their random choices
     /// from it); 0 for a still image.
     pub frame_index: u32,
+    /// Pixel filter and primary samples per pixel (the scene's, unless the command line says).
+    pub film: Film,
+    /// Which primary sample of each pixel [`FrameContext::gbuffer`] traces.
+    pub film_pass: u32,
     /// Pixels finished in the current `render`, for progress bars.
     pub progress: crate::Progress,
 }
@@ -23,7 +27,8 @@ impl<'a> FrameContext<'a> {
         let frame = scene.at(time);
         let tracer = ExactTracer::build(&frame);
         let camera = scene.camera_or_default(width as f32 / height as f32);
-        Self { frame, tracer, camera, width, height, frame_index: 0, progress: crate::Progress::default() }
+        let film = scene.film;
+        Self { frame, tracer, camera, width, height, frame_index: 0, film, film_pass: 0, progress: crate::Progress::default() }
     }
 
     pub fn scene(&self) -> &'a Scene {
@@ -37,8 +42,9 @@ impl<'a> FrameContext<'a> {
         self.frame_index = frame_index;
     }
 
+    /// The GBuffer of primary sample [`FrameContext::film_pass`] under the film's filter.
     pub fn gbuffer(&self) -> GBuffer {
-        GBuffer::new(&self.frame, &self.tracer, &self.camera, self.width, self.height)
+        GBuffer::sampled(&self.frame, &self.tracer, &self.camera, self.width, self.height, self.film.filter, self.film_pass)
     }
 
     pub fn image(&self) -> Image {

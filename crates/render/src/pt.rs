@@ -1,7 +1,7 @@
 //! `pt`: a unidirectional path tracer, the ground truth for full global illumination.
 //!
-//! The primary hit is the GBuffer's (pixel centre, no anti-aliasing: every technique shades the
-//! same GBuffer). From there each of the `spp` paths bounces with the [`crate::bsdf`] BRDF
+//! The primary hit is the GBuffer's (one pixel-filter sample per pixel: every technique shades
+//! the same GBuffer; several film samples are several passes). From there each of the `spp` paths bounces with the [`crate::bsdf`] BRDF
 //! (glTF metallic-roughness: Lambert + GGX, VNDF sampling; `brdf=lambert` treats every material
 //! as Lambertian with its base colour, to compare with the Lambertian references):
 //! - area lights and the environment by next-event estimation *and* BRDF sampling, combined

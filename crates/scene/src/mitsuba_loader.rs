@@ -508,11 +508,13 @@ impl<'a, 'input> Loader<'a, 'input> {
             return Err(self.unsupported(node, format!("film '{kind}' (only 'hdrfilm' is supported)")));
         }
         let (mut w, mut h) = (768i64, 576i64);
+        // Mitsuba 3's film filters with a Gaussian unless told otherwise.
+        let mut rfilter = None;
         for c in elements(node) {
             match (c.tag_name().name(), self.attr(c, "name")?.as_deref()) {
                 ("integer", Some("width")) => w = self.integer(c)?,
                 ("integer", Some("height")) => h = self.integer(c)?,
-                ("rfilter", _) => self.scene.render_hints.filter = Some(self.rfilter(c)?),
+                ("rfilter", _) => rfilter = Some(self.rfilter(c)?),
                 // The storage format of Mitsuba's output file, not the image.
                 ("string", Some("pixel_format" | "component_format" | "file_format")) => {
                     self.required(c, "value")?;
@@ -524,6 +526,9 @@ impl<'a, 'input> Loader<'a, 'input> {
             return Err(self.malformed(node, format!("film size {w}x{h}: each side must lie in 1..=16384")));
         }
         self.scene.render_hints.size = Some((w as u32, h as u32));
+        let filter = rfilter.unwrap_or_else(|| "gaussian".to_owned());
+        self.scene.film.filter = crate::Filter::parse(&filter).expect("rfilter() accepts only glimpse's filters");
+        self.scene.render_hints.filter = Some(filter);
         Ok((w as u32, h as u32))
     }
 

@@ -160,6 +160,8 @@ pub struct Scene {
     pub warnings: Vec<String>,
     /// Size, spp, depth and filter the file asks for (Mitsuba scenes); empty for other formats.
     pub render_hints: crate::RenderHints,
+    /// Pixel filter and primary samples per pixel (`[film]` in scene.toml, Mitsuba's rfilter).
+    pub film: crate::Film,
 }
 
 impl Scene {

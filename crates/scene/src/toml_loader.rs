@@ -13,6 +13,10 @@
 //! fov_axis = "y"                     # "x", "y" (default), "smaller" or "larger" image side
 //! # fov_y_degrees = 40.0             # the older spelling of fov_degrees with fov_axis = "y"
 //!
+//! [film]
+//! filter = "box"                     # pixel filter: "box" (default), "tent", "gaussian", "pixel-centre"
+//! samples = 1                        # primary samples per pixel (each a pass of the technique)
+//!
 //! [environment]                      # exactly one of file, constant, sky
 //! file = "studio.hdr"                # equirectangular .hdr/.exr/.png (+y up, centre looks along −z)
 //! # constant = [0.2, 0.2, 0.2]       # the same radiance from everywhere
@@ -99,6 +103,14 @@ struct SceneDef {
     sphere: Vec<SphereDef>,
     #[serde(default)]
     light: Vec<LightDef>,
+    film: Option<FilmDef>,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct FilmDef {
+    filter: Option<String>,
+    samples: Option<u32>,
 }
 
 #[derive(Deserialize)]
@@ -364,6 +376,15 @@ impl Builder<'_> {
             Some(c) => Some(self.camera(c)?),
             None => file_camera,
         };
+        if let Some(f) = &def.film {
+            let mut film = self.scene.film;
+            if let Some(name) = &f.filter {
+                film.filter = crate::Filter::from_name(name).map_err(|e| self.invalid(format!("[film]: {e}")))?;
+            }
+            film.samples = f.samples.unwrap_or(film.samples);
+            film.validate().map_err(|e| self.invalid(format!("[film]: {e}")))?;
+            self.scene.film = film;
+        }
         Ok(self.scene)
     }
 

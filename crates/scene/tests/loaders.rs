@@ -758,3 +758,22 @@ material = { model = "dielectric", ior = 1.33 }
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn film_filter_and_samples_from_toml() {
+    let dir = std::env::temp_dir().join(format!("glimpse-film-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("film.toml");
+    std::fs::write(&path, "[film]\nfilter = \"tent\"\nsamples = 8\n[[quad]]\n").unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.film, glimpse_scene::Film { filter: glimpse_scene::Filter::Tent, samples: 8 });
+    std::fs::write(&path, "[[quad]]\n").unwrap();
+    assert_eq!(glimpse_scene::load(path.to_str().unwrap()).unwrap().film, glimpse_scene::Film::default(), "box, 1 sample by default");
+    for (bad, needle) in [("filter = \"lanczos\"", "unknown filter 'lanczos'"), ("samples = 0", "film samples = 0"), ("radius = 2", "radius")] {
+        std::fs::write(&path, format!("[film]\n{bad}\n[[quad]]\n")).unwrap();
+        let e = glimpse_scene::load(path.to_str().unwrap()).unwrap_err().to_string();
+        println!("{bad}: {e}");
+        assert!(e.contains("film.toml") && e.contains(needle), "{bad}: {e}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

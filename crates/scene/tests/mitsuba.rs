@@ -31,6 +31,7 @@ fn the_shared_cornell_box_loads_with_its_settings() {
     assert_eq!(s.meshes.len(), 8);
     let h = &s.render_hints;
     assert_eq!((h.size, h.spp, h.max_depth, h.filter.as_deref()), (Some((256, 256)), Some(128), Some(5), Some("tent")));
+    assert_eq!(s.film.filter, glimpse_scene::Filter::Tent, "the rfilter is the scene's pixel filter");
     let cam = s.camera.as_ref().unwrap();
     assert!((cam.position - Vec3::new(0.0, 0.0, 4.0)).length() < 1e-6);
     assert!((cam.fov.to_degrees() - 39.3077).abs() < 1e-3, "square film: fov_axis smaller is vertical");

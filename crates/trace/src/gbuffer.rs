@@ -1,11 +1,15 @@
-//! The GBuffer: what the camera sees through each pixel's centre, found with exact primary rays.
+//! The GBuffer: what the camera sees through one primary sample per pixel (placed by the film's
+//! pixel filter, or at the pixel centre), found with exact primary rays.
 //! Every technique shades the same GBuffer as its reference, so their difference is only the
 //! technique's own approximation. Stored as flat per-attribute arrays (GPU-friendly).
 
 use crate::{ExactTracer, SceneFrame, SurfacePoint};
-use glimpse_core::{Ray, Vec2, Vec3};
-use glimpse_scene::Camera;
+use glimpse_core::{Ray, Rng, Vec2, Vec3};
+use glimpse_scene::{Camera, Filter};
 use rayon::prelude::*;
+
+/// The stream film sample positions are drawn from (independent of any technique's seed).
+const FILM_SEED: u64 = 0xf11_5a3e;
 
 /// Instance id of pixels that see no geometry.
 pub const NO_HIT: u32 = u32::MAX;
@@ -35,12 +39,21 @@ pub struct GBuffer {
 }
 
 impl GBuffer {
+    /// Through every pixel's centre.
     pub fn new(frame: &SceneFrame, tracer: &ExactTracer, camera: &Camera, width: u32, height: u32) -> GBuffer {
+        Self::sampled(frame, tracer, camera, width, height, Filter::PixelCentre, 0)
+    }
+
+    /// Through primary sample `pass` of every pixel: an offset from the pixel centre drawn from
+    /// `filter` with random numbers that depend only on the pixel and the pass, so every
+    /// technique and its reference shade the same samples.
+    pub fn sampled(frame: &SceneFrame, tracer: &ExactTracer, camera: &Camera, width: u32, height: u32, filter: Filter, pass: u32) -> GBuffer {
         let texels: Vec<(Ray, Option<SurfacePoint>)> = (0..width * height)
             .into_par_iter()
             .map(|i| {
                 let (x, y) = (i % width, i / width);
-                let ray = camera.ray(x as f32 + 0.5, y as f32 + 0.5, width, height);
+                let offset = filter.sample(Rng::for_pixel(FILM_SEED, i as u64, pass as u64).next_2d());
+                let ray = camera.ray(x as f32 + 0.5 + offset.x, y as f32 + 0.5 + offset.y, width, height);
                 let sp = tracer.closest_hit(&ray, f32::INFINITY).map(|h| SurfacePoint::from_hit(frame, &ray, &h));
                 (ray, sp)
             })
@@ -101,6 +114,11 @@ impl GBuffer {
 
     pub fn is_hit(&self, i: usize) -> bool {
         self.instance[i] != NO_HIT
+    }
+
+    /// A secondary ray leaving pixel `i`'s surface along `dir`.
+    pub fn spawn(&self, i: usize, dir: Vec3) -> Ray {
+        Ray::spawn(self.position[i], self.normal[i], dir)
     }
 
     /// The surface point of pixel `i`, if it sees geometry (for spawning secondary rays).

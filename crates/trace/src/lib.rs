@@ -6,6 +6,7 @@
 //! - [`brute`]: every ray against every triangle, the oracle for the tracer's tests.
 //! - [`surface`]: from a [`Hit`] to positions, normals, texture coordinates and albedo.
 //! - [`gbuffer`]: primary visibility per pixel.
+//! - [`spawn`]: robust hit points and secondary-ray origins.
 //! - `embree` (feature): Intel Embree on the same scene, for cross-checks and benchmarks.
 
 pub mod brute;
@@ -14,6 +15,7 @@ pub mod bvh;
 pub mod embree;
 pub mod gbuffer;
 pub mod rays;
+pub mod spawn;
 pub mod surface;
 pub mod tracer;
 pub mod triangle;

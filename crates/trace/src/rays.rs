@@ -4,7 +4,7 @@
 //! All three sets start from the points of a [`GBuffer`] (the camera's primary hits), in pixel
 //! order, with each pixel's random numbers drawn from its own [`Rng::for_pixel`] stream, so a
 //! set depends only on the scene, the camera, the resolution and the seed — not on threads.
-//! Origins go through [`Ray::spawn`], directions are unit vectors, and each ray comes with the
+//! Origins go through [`GBuffer::spawn`], directions are unit vectors, and each ray comes with the
 //! `t_max` of its query.
 //!
 //! - [`ao_rays`]: ambient occlusion, cosine-weighted around the geometric normal, `t_max` = radius.
@@ -45,12 +45,12 @@ pub fn ao_rays(
 pub fn ao_rays_from(gbuffer: &GBuffer, rays_per_pixel: u32, radius: f32, seed: u64) -> Vec<(Ray, f32)> {
     let mut rays = Vec::new();
     for i in (0..gbuffer.len()).filter(|&i| gbuffer.is_hit(i)) {
-        let (p, n) = (gbuffer.position[i], gbuffer.normal[i]);
+        let n = gbuffer.normal[i];
         let frame = Frame::from_z(n);
         let mut rng = Rng::for_pixel(seed, i as u64, PASS_AO);
         for _ in 0..rays_per_pixel {
             let d = frame.to_world(cosine_hemisphere(rng.next_2d())).normalize_or(n);
-            rays.push((Ray::spawn(p, n, d), radius));
+            rays.push((gbuffer.spawn(i, d), radius));
         }
     }
     rays
@@ -76,11 +76,10 @@ pub fn shadow_rays(
 pub fn shadow_rays_from(frame: &SceneFrame, gbuffer: &GBuffer, area_samples_per_pixel: u32, seed: u64) -> Vec<(Ray, f32)> {
     let mut rays = Vec::new();
     for i in (0..gbuffer.len()).filter(|&i| gbuffer.is_hit(i)) {
-        let (p, n) = (gbuffer.position[i], gbuffer.normal[i]);
         for light in &frame.lights {
             match light.kind {
-                LightKind::Directional => rays.push((Ray::spawn(p, n, -light.direction), f32::INFINITY)),
-                LightKind::Point | LightKind::Spot { .. } => rays.extend(segment(p, n, light.position)),
+                LightKind::Directional => rays.push((gbuffer.spawn(i, -light.direction), f32::INFINITY)),
+                LightKind::Point | LightKind::Spot { .. } => rays.extend(segment(gbuffer, i, light.position)),
             }
         }
         let Some(dist) = &frame.emissive_distribution else { continue };
@@ -88,16 +87,16 @@ pub fn shadow_rays_from(frame: &SceneFrame, gbuffer: &GBuffer, area_samples_per_
         for _ in 0..area_samples_per_pixel {
             let (k, _) = dist.sample_discrete(rng.next_f32());
             let target = frame.emissive[k].sample_point(rng.next_2d());
-            rays.extend(segment(p, n, target));
+            rays.extend(segment(gbuffer, i, target));
         }
     }
     rays
 }
 
-/// The shadow ray from surface point `p` (normal `n`) to `target`, if they are apart.
-fn segment(p: Vec3, n: Vec3, target: Vec3) -> Option<(Ray, f32)> {
-    let dir = (target - p).try_normalize()?;
-    let mut ray = Ray::spawn(p, n, dir);
+/// The shadow ray from pixel `i`'s surface point to `target`, if they are apart.
+fn segment(gbuffer: &GBuffer, i: usize, target: Vec3) -> Option<(Ray, f32)> {
+    let dir = (target - gbuffer.position[i]).try_normalize()?;
+    let mut ray = gbuffer.spawn(i, dir);
     let to = target - ray.origin;
     let distance = to.length();
     ray.dir = to.try_normalize()?;
@@ -123,12 +122,12 @@ pub fn bounce_rays(
 pub fn bounce_rays_from(gbuffer: &GBuffer, rays_per_pixel: u32, seed: u64) -> Vec<(Ray, f32)> {
     let mut rays = Vec::new();
     for i in (0..gbuffer.len()).filter(|&i| gbuffer.is_hit(i)) {
-        let (p, n, ns) = (gbuffer.position[i], gbuffer.normal[i], gbuffer.shading_normal[i]);
+        let ns = gbuffer.shading_normal[i];
         let frame = Frame::from_z(ns);
         let mut rng = Rng::for_pixel(seed, i as u64, PASS_BOUNCE);
         for _ in 0..rays_per_pixel {
             let d = frame.to_world(cosine_hemisphere(rng.next_2d())).normalize_or(ns);
-            rays.push((Ray::spawn(p, n, d), f32::INFINITY));
+            rays.push((gbuffer.spawn(i, d), f32::INFINITY));
         }
     }
     rays

@@ -31,8 +31,9 @@ impl SurfacePoint {
         let pos = &frame.positions[inst.mesh as usize];
         let b0 = 1.0 - hit.b1 - hit.b2;
         let p = [pos[i0], pos[i1], pos[i2]].map(|v| m.transform_point3(v));
-        // Interpolating the vertices is more precise than origin + t·dir for long rays.
-        let position = p[0] * b0 + p[1] * hit.b1 + p[2] * hit.b2;
+        // Interpolating the vertices is more precise than origin + t·dir for long rays; the
+        // inset keeps the point off edges shared with other meshes (see `spawn`).
+        let (position, _) = crate::spawn::inset_point(&p, [b0, hit.b1, hit.b2]);
         let raw = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or(Vec3::Y);
         let front_face = raw.dot(ray.dir) < 0.0;
         let normal = if front_face { raw } else { -raw };
@@ -56,6 +57,11 @@ impl SurfacePoint {
             instance: hit.instance,
             triangle: hit.triangle,
         }
+    }
+
+    /// A ray leaving the surface along `dir` (either side).
+    pub fn spawn(&self, dir: Vec3) -> Ray {
+        Ray::spawn(self.position, self.normal, dir)
     }
 
     /// Diffuse albedo: base colour × texture.
