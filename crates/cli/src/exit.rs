@@ -13,6 +13,16 @@ use std::panic::PanicHookInfo;
 /// can check what a user sees when a bug panics.
 pub const PANIC_FOR_TEST: &str = "GLIMPSE_PANIC_FOR_TEST";
 
+/// On Ctrl-C (SIGINT, and SIGTERM): remove the temporary files of writes in progress, so the
+/// outputs keep their previous content and nothing is left beside them, then exit with 130 and
+/// one `error:` line.
+pub fn install_interrupt_handler() {
+    let _ = ctrlc::set_handler(|| {
+        eprintln!("error: interrupted");
+        glimpse_core::atomic_file::remove_in_flight_and_exit(130);
+    });
+}
+
 pub fn install_panic_hook() {
     let standard = std::panic::take_hook();
     // The first panicking thread reports and exits; any other waits here until the process ends.

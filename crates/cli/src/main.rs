@@ -50,6 +50,7 @@ enum Command {
 
 fn main() -> ExitCode {
     exit::install_panic_hook();
+    exit::install_interrupt_handler();
     let cli = Cli::parse();
     exit::panic_if_asked();
     glimpse_core::memory_budget::set_budget(cli.max_memory.unwrap_or(0));

@@ -103,7 +103,10 @@ pub fn run(a: RenderArgs) -> Result<()> {
 /// drawing its random numbers as frame `p`), and averages them; a technique that blends its own
 /// history (it times an `accumulate` stage) already returns the average. Returns the image and
 /// the passes' summed stats.
-fn render_film(technique: &mut dyn glimpse_render::Technique, ctx: &mut FrameContext) -> Result<(glimpse_core::Image, glimpse_render::Stats)> {
+fn render_film(
+    technique: &mut dyn glimpse_render::Technique,
+    ctx: &mut FrameContext,
+) -> Result<(glimpse_core::Image, glimpse_render::Stats)> {
     let passes = ctx.film.samples.max(1);
     let mut sum = ctx.image();
     let mut stats = glimpse_render::Stats::default();

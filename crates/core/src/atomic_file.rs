@@ -8,8 +8,29 @@
 use std::fs::File;
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
+
+/// Temporary files being written now, so an interrupt handler can remove them
+/// ([`remove_in_flight_and_exit`]) before the process exits.
+static IN_FLIGHT: Mutex<Vec<PathBuf>> = Mutex::new(Vec::new());
+
+fn in_flight() -> std::sync::MutexGuard<'static, Vec<PathBuf>> {
+    IN_FLIGHT.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+/// For a Ctrl-C handler: removes every temporary file a write of this process has open, so the
+/// destinations keep their previous content and no `.tmp` file is left behind, then exits with
+/// `code`. Temporary files are created under the same lock, and the lock is held until the
+/// process ends, so no write can start a new one in between.
+pub fn remove_in_flight_and_exit(code: i32) -> ! {
+    let paths = in_flight();
+    for p in paths.iter() {
+        let _ = std::fs::remove_file(p);
+    }
+    std::process::exit(code)
+}
 
 /// The marker in every temporary file's name: `<name>.tmp<pid>.<n>`.
 pub const TEMP_MARKER: &str = ".tmp";
@@ -56,7 +77,12 @@ where
         return Err(err("replace", io::Error::new(io::ErrorKind::InvalidInput, "it exists and is not a regular file")));
     }
     let tmp = temp_path(path);
-    let file = File::create(&tmp).map_err(|e| err("create a temporary file", e))?;
+    let file = {
+        let mut registry = in_flight();
+        let file = File::create(&tmp).map_err(|e| err("create a temporary file", e))?;
+        registry.push(tmp.clone());
+        file
+    };
     let result = (|| {
         let mut w = BufWriter::new(file);
         fill(&mut w).map_err(|e| err("write", e))?;
@@ -69,6 +95,7 @@ where
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }
+    in_flight().retain(|p| p != &tmp);
     result
 }
 

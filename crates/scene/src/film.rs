@@ -187,7 +187,9 @@ mod tests {
             // Expected share of each bin from the filter's own integral.
             let fine = 64;
             let mass: Vec<f64> = (0..bins)
-                .map(|b| (0..fine).map(|k| filter.eval_1d(-r + (b as f32 + (k as f32 + 0.5) / fine as f32) * 2.0 * r / bins as f32) as f64).sum())
+                .map(|b| {
+                    (0..fine).map(|k| filter.eval_1d(-r + (b as f32 + (k as f32 + 0.5) / fine as f32) * 2.0 * r / bins as f32) as f64).sum()
+                })
                 .collect();
             let total: f64 = mass.iter().sum();
             let worst = hist.iter().zip(&mass).map(|(&h, &m)| (h as f64 / n as f64 - m / total).abs()).fold(0.0, f64::max);

@@ -769,7 +769,9 @@ fn film_filter_and_samples_from_toml() {
     assert_eq!(scene.film, glimpse_scene::Film { filter: glimpse_scene::Filter::Tent, samples: 8 });
     std::fs::write(&path, "[[quad]]\n").unwrap();
     assert_eq!(glimpse_scene::load(path.to_str().unwrap()).unwrap().film, glimpse_scene::Film::default(), "box, 1 sample by default");
-    for (bad, needle) in [("filter = \"lanczos\"", "unknown filter 'lanczos'"), ("samples = 0", "film samples = 0"), ("radius = 2", "radius")] {
+    for (bad, needle) in
+        [("filter = \"lanczos\"", "unknown filter 'lanczos'"), ("samples = 0", "film samples = 0"), ("radius = 2", "radius")]
+    {
         std::fs::write(&path, format!("[film]\n{bad}\n[[quad]]\n")).unwrap();
         let e = glimpse_scene::load(path.to_str().unwrap()).unwrap_err().to_string();
         println!("{bad}: {e}");

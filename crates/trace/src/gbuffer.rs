@@ -47,7 +47,15 @@ impl GBuffer {
     /// Through primary sample `pass` of every pixel: an offset from the pixel centre drawn from
     /// `filter` with random numbers that depend only on the pixel and the pass, so every
     /// technique and its reference shade the same samples.
-    pub fn sampled(frame: &SceneFrame, tracer: &ExactTracer, camera: &Camera, width: u32, height: u32, filter: Filter, pass: u32) -> GBuffer {
+    pub fn sampled(
+        frame: &SceneFrame,
+        tracer: &ExactTracer,
+        camera: &Camera,
+        width: u32,
+        height: u32,
+        filter: Filter,
+        pass: u32,
+    ) -> GBuffer {
         let texels: Vec<(Ray, Option<SurfacePoint>)> = (0..width * height)
             .into_par_iter()
             .map(|i| {
