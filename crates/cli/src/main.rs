@@ -9,6 +9,8 @@ mod play_cmd;
 mod render_cmd;
 mod scene_args;
 mod suite_cmd;
+#[cfg(feature = "viewer")]
+mod view;
 
 use clap::{Parser, Subcommand};
 use std::process::ExitCode;
@@ -40,6 +42,10 @@ enum Command {
     Bench(bench_cmd::BenchCommand),
     /// Render an animation frame by frame with per-frame stage timings.
     Play(play_cmd::PlayArgs),
+    /// Open an interactive window on a scene: fly the camera, switch techniques, compare with the
+    /// reference (built with `--features viewer`).
+    #[cfg(feature = "viewer")]
+    View(view::ViewArgs),
     /// Every approximate technique on every suite scene (scenes/suite) at its defaults: one report.
     Suite(suite_cmd::SuiteArgs),
     /// List the built-in scenes.
@@ -71,6 +77,8 @@ fn main() -> ExitCode {
         Command::Eval(a) => eval_cmd::run(a),
         Command::Bench(c) => bench_cmd::run(c),
         Command::Play(a) => play_cmd::run(a),
+        #[cfg(feature = "viewer")]
+        Command::View(a) => view::run(a),
         Command::Suite(a) => suite_cmd::run(a),
         Command::Scenes => {
             for name in glimpse_scene::builtin::NAMES {

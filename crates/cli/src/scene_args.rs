@@ -148,6 +148,10 @@ pub fn set_threads(n: usize) -> Result<()> {
     Ok(())
 }
 
+fn parse_filter(s: &str) -> Result<glimpse_scene::Filter, String> {
+    glimpse_scene::Filter::from_name(s)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -167,8 +171,4 @@ mod tests {
         assert!(parse_camera("pos=0,1,5:target=0,0,0:fov=200").is_err());
         assert!(parse_camera("pos=0,1,5:look=0,0,0").unwrap_err().contains("unknown camera key"));
     }
-}
-
-fn parse_filter(s: &str) -> Result<glimpse_scene::Filter, String> {
-    glimpse_scene::Filter::from_name(s)
 }

@@ -42,7 +42,7 @@ pub fn inset_point(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, Vec3) {
     let (_, error) = interpolate(p, b);
     let twice_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
     let reach = INSET_ERRORS * error.length();
-    if !(twice_area > 0.0) || reach == 0.0 {
+    if twice_area.is_nan() || twice_area <= 0.0 || reach == 0.0 {
         return interpolate(p, b);
     }
     // The distance from the edge opposite vertex i to vertex i is 2A/|edge|; a barycentric bᵢ
