@@ -4,13 +4,20 @@
 //! filled by pull-push. The paper's setting: a 128×128 map per light from about 11,000 points.
 //!
 //! Gaps filled: the lights here are omnidirectional point lights, so each map is an octahedral
-//! map of the whole sphere (the original uses paraboloid maps of VPL hemispheres); each point is
-//! splatted into one texel with its distance; pull averages the valid children, push fills
-//! empty texels from the coarser level. Points: a seeded pool of 8× the per-map count sampled
+//! map of the whole sphere (the original uses paraboloid maps of VPL hemispheres); a directional
+//! light gets an orthographic map fitted to the scene's bounds ([`crate::ortho`]). Each point is
+//! splatted with its distance as a square of texels covering its share of the surface area seen
+//! from the light (the area per point × |cos| at the point over the distance², against a texel's
+//! solid angle; at most 9×9 texels), as ISM's points are drawn with a distance-dependent size: a one-texel splat
+//! leaves holes in occluders near the light, which pull-push then fills with the farther depths
+//! around them, and light leaks through (measured on floors under tables; see
+//! docs/techniques/many-lights.md). Pull averages the valid children, push fills empty texels
+//! from the coarser level. Points: a seeded pool of 8× the per-map count sampled
 //! uniformly by area; light `l` uses a contiguous window of the pool at a seeded offset.
 //! The lookup moves the shaded point along its normal by `bias` texel footprints and compares
 //! distances with the same tolerance. `prepare` builds the maps; `render` only looks them up.
 
+use crate::ortho::OrthoMap;
 use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
 use glimpse_core::{Rng, Vec2, Vec3};
 use glimpse_render::{ParamError, Params, TechniqueInfo};
@@ -52,54 +59,104 @@ fn oct_encode(d: Vec3) -> Vec2 {
     p * 0.5 + Vec2::splat(0.5)
 }
 
-/// Imperfect shadow maps of every light: `depth[light·r² + y·r + x]` (distance to the light).
+/// How a light's imperfect map projects the points.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum IsmProjection {
+    /// Octahedral map of distances around a point or spot light at this position.
+    Octahedral(Vec3),
+    /// Orthographic map of depths along a directional light.
+    Ortho(OrthoMap),
+}
+
+/// Largest splat half-width, texels (a point very near the light covers at most 9×9 texels).
+const MAX_SPLAT_RADIUS: i64 = 4;
+
+/// Imperfect shadow maps of every light: `depth[light·r² + y·r + x]` (distance to the light, or
+/// depth along a directional light).
 #[derive(Clone, Debug)]
 pub struct ImperfectShadowMaps {
     pub resolution: u32,
     pub depth: Vec<f32>,
-    pub lights: Vec<Option<Vec3>>,
+    pub lights: Vec<IsmProjection>,
     pub bias_texels: f32,
     pub points: usize,
 }
 
+/// Writes `depth` into the texels within `radius` texels of (x, y), keeping the nearest.
+fn splat(map: &mut [f32], r: usize, x: f32, y: f32, radius: f32, depth: f32) {
+    let half = (radius - 0.5).ceil().clamp(0.0, MAX_SPLAT_RADIUS as f32) as i64;
+    let (cx, cy) = (x as i64, y as i64);
+    for ty in (cy - half).max(0)..=(cy + half).min(r as i64 - 1) {
+        for tx in (cx - half).max(0)..=(cx + half).min(r as i64 - 1) {
+            let t = &mut map[ty as usize * r + tx as usize];
+            *t = t.min(depth);
+        }
+    }
+}
+
 impl ImperfectShadowMaps {
     pub fn build(frame: &SceneFrame, lights: &[WorldLight], p: &IsmParams) -> Self {
-        let pool = sample_points(&frame.world_triangles(), 8 * p.points_per_map as usize, p.seed);
+        let tris = frame.world_triangles();
+        let pool = sample_points(&tris, 8 * p.points_per_map as usize, p.seed);
+        let total_area: f64 = tris.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64).sum();
         let r = p.resolution as usize;
         let mut depth = vec![f32::INFINITY; lights.len() * r * r];
-        let pos: Vec<Option<Vec3>> = lights.iter().map(|l| (l.kind != LightKind::Directional).then_some(l.position)).collect();
+        let projections: Vec<IsmProjection> = lights
+            .iter()
+            .map(|l| match l.kind {
+                LightKind::Directional => IsmProjection::Ortho(OrthoMap::fit(l.direction, &frame.bounds, p.resolution)),
+                LightKind::Point | LightKind::Spot { .. } => IsmProjection::Octahedral(l.position),
+            })
+            .collect();
         let m = (p.points_per_map as usize).min(pool.len());
-        depth.par_chunks_mut(r * r).zip(&pos).enumerate().for_each(|(l, (map, lp))| {
-            let Some(lp) = lp else { return };
+        // The surface area each of a map's points stands for.
+        let area_per_point = (total_area / m.max(1) as f64) as f32;
+        let texel_solid_angle = 4.0 * PI / (r * r) as f32;
+        depth.par_chunks_mut(r * r).zip(&projections).enumerate().for_each(|(l, (map, projection))| {
             if pool.is_empty() {
                 return;
             }
             let start = (Rng::new(p.seed ^ 0x15a, l as u64).next_f32() * pool.len() as f32) as usize;
             for k in 0..m {
-                let d = pool[(start + k) % pool.len()] - *lp;
-                let dist = d.length();
-                if dist <= 0.0 {
-                    continue;
+                let (point, normal) = pool[(start + k) % pool.len()];
+                match projection {
+                    IsmProjection::Octahedral(lp) => {
+                        let d = point - *lp;
+                        let dist = d.length();
+                        if dist <= 0.0 {
+                            continue;
+                        }
+                        let uv = oct_encode(d / dist) * r as f32;
+                        // Texels the point's disk covers: its projected solid angle over a texel's.
+                        let texels = area_per_point * normal.dot(d / dist).abs() / (dist * dist) / texel_solid_angle;
+                        splat(map, r, uv.x.min(r as f32 - 1.0), uv.y.min(r as f32 - 1.0), (texels / PI).sqrt(), dist);
+                    }
+                    IsmProjection::Ortho(o) => {
+                        let q = o.project(point);
+                        if o.texel_of(q).is_some() {
+                            let texels = area_per_point * normal.dot(o.direction()).abs() / (o.texel() * o.texel());
+                            splat(map, r, q.x, q.y, (texels / PI).sqrt(), q.z);
+                        }
+                    }
                 }
-                let uv = oct_encode(d / dist) * r as f32;
-                let (x, y) = ((uv.x as usize).min(r - 1), (uv.y as usize).min(r - 1));
-                let t = &mut map[y * r + x];
-                *t = t.min(dist);
             }
             pull_push(map, r);
         });
-        Self { resolution: p.resolution, depth, lights: pos, bias_texels: p.bias_texels, points: pool.len() }
+        Self { resolution: p.resolution, depth, lights: projections, bias_texels: p.bias_texels, points: pool.len() }
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.depth.len() * 4 + self.points * 12
+        self.depth.len() * 4 + self.points * 24
     }
 
     /// Whether light `l` is hidden from the surface point `p` (normal `n`).
     #[inline]
     pub fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
-        let Some(lp) = self.lights[l] else { return false };
         let r = self.resolution as usize;
+        let lp = match &self.lights[l] {
+            IsmProjection::Octahedral(lp) => *lp,
+            IsmProjection::Ortho(o) => return o.shadowed(&self.depth[l * r * r..][..r * r], p, n, self.bias_texels),
+        };
         let d0 = p - lp;
         let footprint = d0.length() * (4.0 * PI).sqrt() / r as f32;
         let nn = if n.dot(-d0) < 0.0 { -n } else { n };
@@ -153,8 +210,9 @@ fn pull_push(map: &mut [f32], r: usize) {
     map.copy_from_slice(&parent.1);
 }
 
-/// `count` points uniformly by area over the triangles (seeded).
-fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<Vec3> {
+/// `count` points uniformly by area over the triangles (seeded), each with its triangle's unit
+/// normal.
+fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
     let mut cdf = Vec::with_capacity(tris.len());
     let mut total = 0.0f64;
     for t in tris {
@@ -171,7 +229,7 @@ fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<Vec3> {
             let k = cdf.partition_point(|&c| c < u).min(tris.len() - 1);
             let b = glimpse_core::sampling::uniform_triangle(rng.next_2d());
             let t = tris[k];
-            t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y
+            (t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y, (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y))
         })
         .collect()
 }

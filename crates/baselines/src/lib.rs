@@ -9,6 +9,7 @@
 
 pub mod distance_field;
 pub mod ism;
+pub mod ortho;
 pub mod per_light_maps;
 pub mod shadowmap;
 pub mod sphere_trace;

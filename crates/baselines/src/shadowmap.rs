@@ -7,9 +7,11 @@
 //! depth along the face axis, rasterized on the CPU (triangles clipped at the near plane,
 //! perspective-correct depth at texel centres). The lookup moves the shaded point along its
 //! normal by `bias` texel footprints at its depth and compares with the same tolerance.
-//! Directional lights are left unshadowed (the many-light scenes have none). `prepare` builds
-//! every map (in parallel over lights); `render` only looks them up.
+//! A directional light gets one orthographic map of `resolution²` texels along its direction,
+//! fitted to the scene's bounds ([`crate::ortho`]), with the same bias in its texels. `prepare`
+//! builds every map (in parallel over lights); `render` only looks them up.
 
+use crate::ortho::OrthoMap;
 use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
 use glimpse_core::Vec3;
 use glimpse_render::{ParamError, Params, TechniqueInfo};
@@ -66,13 +68,31 @@ fn major_face(d: Vec3) -> usize {
     }
 }
 
-/// Cube shadow maps of every light: `depth[(light·6 + face)·r² + y·r + x]`.
+/// How a light's map projects the scene.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum LightProjection {
+    /// Six 90° faces around a point or spot light at this position.
+    Cube(Vec3),
+    /// One orthographic map along a directional light (its first face's storage).
+    Ortho(OrthoMap),
+}
+
+impl LightProjection {
+    pub fn of(light: &WorldLight, bounds: &glimpse_core::Aabb, resolution: u32) -> LightProjection {
+        match light.kind {
+            LightKind::Directional => LightProjection::Ortho(OrthoMap::fit(light.direction, bounds, resolution)),
+            LightKind::Point | LightKind::Spot { .. } => LightProjection::Cube(light.position),
+        }
+    }
+}
+
+/// Shadow maps of every light: `depth[(light·6 + face)·r² + y·r + x]` (a directional light uses
+/// face 0 only).
 #[derive(Clone, Debug)]
 pub struct CubeShadowMaps {
     pub resolution: u32,
     pub depth: Vec<f32>,
-    /// Per light: its position, or `None` (unshadowed).
-    pub lights: Vec<Option<Vec3>>,
+    pub lights: Vec<LightProjection>,
     pub bias_texels: f32,
 }
 
@@ -84,9 +104,17 @@ impl CubeShadowMaps {
         let r = p.resolution as usize;
         let per_light = 6 * r * r;
         let mut depth = vec![f32::INFINITY; lights.len() * per_light];
-        let pos: Vec<Option<Vec3>> = lights.iter().map(|l| (l.kind != LightKind::Directional).then_some(l.position)).collect();
-        depth.par_chunks_mut(per_light).zip(&pos).for_each(|(maps, lp)| {
-            let Some(lp) = lp else { return };
+        let projections: Vec<LightProjection> = lights.iter().map(|l| LightProjection::of(l, &frame.bounds, p.resolution)).collect();
+        depth.par_chunks_mut(per_light).zip(&projections).for_each(|(maps, projection)| {
+            let lp = match projection {
+                LightProjection::Cube(lp) => lp,
+                LightProjection::Ortho(m) => {
+                    for t in &tris {
+                        m.raster(&mut maps[..r * r], t);
+                    }
+                    return;
+                }
+            };
             for t in &tris {
                 let d = t.map(|v| v - *lp);
                 for face in 0..6 {
@@ -104,7 +132,7 @@ impl CubeShadowMaps {
                 }
             }
         });
-        Self { resolution: p.resolution, depth, lights: pos, bias_texels: p.bias_texels }
+        Self { resolution: p.resolution, depth, lights: projections, bias_texels: p.bias_texels }
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -114,8 +142,11 @@ impl CubeShadowMaps {
     /// Whether light `l` is hidden from the surface point `p` (normal `n`).
     #[inline]
     pub fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
-        let Some(lp) = self.lights[l] else { return false };
         let r = self.resolution as usize;
+        let lp = match &self.lights[l] {
+            LightProjection::Cube(lp) => *lp,
+            LightProjection::Ortho(m) => return m.shadowed(&self.depth[l * 6 * r * r..][..r * r], p, n, self.bias_texels),
+        };
         let d0 = p - lp;
         let face0 = major_face(d0);
         let w0 = face_coords(face0, d0).2.max(NEAR);

@@ -344,7 +344,8 @@ impl ViewerApp {
                 ui.label(format!("   {name}: {ms:.1} ms"));
             }
         }
-        if let (Compare::Split | Compare::Error | Compare::Reference, Some((t, _)), Some((r, rp))) = (self.compare, &self.images[0], &self.images[1])
+        if let (Compare::Split | Compare::Error | Compare::Reference, Some((t, _)), Some((r, rp))) =
+            (self.compare, &self.images[0], &self.images[1])
             && (t.width, t.height) == (r.width, r.height)
             && let Ok(m) = glimpse_render::metrics::Metrics::compute(t, r)
         {

@@ -88,7 +88,9 @@ pub fn run(a: ViewArgs) -> Result<()> {
         switch_to: a.switch_to.clone(),
     });
     let options = eframe::NativeOptions {
-        viewport: eframe::egui::ViewportBuilder::default().with_inner_size([w as f32 + 300.0, (h as f32).max(520.0)]).with_title("glimpse view"),
+        viewport: eframe::egui::ViewportBuilder::default()
+            .with_inner_size([w as f32 + 300.0, (h as f32).max(520.0)])
+            .with_title("glimpse view"),
         ..Default::default()
     };
     eframe::run_native(

@@ -37,13 +37,32 @@ pub type StageTimes = Vec<(String, f64)>;
 
 pub enum Update {
     /// A long step started ("preparing lights-voxarray").
-    Stage { generation: u64, text: String },
+    Stage {
+        generation: u64,
+        text: String,
+    },
     /// The running average of `passes` full-size passes (0: the quarter-size preview), with the
     /// last pass's stats.
-    Frame { generation: u64, which: Which, image: Image, passes: u32, prepare: StageTimes, render: StageTimes, rays: u64, memory_bytes: usize },
+    Frame {
+        generation: u64,
+        which: Which,
+        image: Image,
+        passes: u32,
+        prepare: StageTimes,
+        render: StageTimes,
+        rays: u64,
+        memory_bytes: usize,
+    },
     /// A technique was built: its parameters as it read them (keys and effective values).
-    Params { generation: u64, which: Which, params: std::collections::BTreeMap<String, String> },
-    Error { generation: u64, message: String },
+    Params {
+        generation: u64,
+        which: Which,
+        params: std::collections::BTreeMap<String, String>,
+    },
+    Error {
+        generation: u64,
+        message: String,
+    },
 }
 
 /// A technique ready to render, with what it was built for.
