@@ -81,26 +81,38 @@ pub struct DvfParams {
     /// surfaces, seen from their back, are not treated as open; the paper, `profile=paper`:
     /// front only).
     pub both_sides: bool,
+    /// Which of `points`, `grid` and `rounding` are still to be chosen from the frame
+    /// ([`DvfParams::for_frame`]; `points=auto` etc., the defaults): the paper's values are
+    /// sized for a GPU and Sponza, and cost minutes per frame on a CPU or on other scenes.
+    pub auto: AutoBudget,
 }
 
+/// The sample budget's keys left to [`DvfParams::for_frame`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
+pub struct AutoBudget {
+    pub points: bool,
+    pub grid: bool,
+    pub rounding: bool,
+}
+
+impl AutoBudget {
+    pub const ALL: AutoBudget = AutoBudget { points: true, grid: true, rounding: true };
+}
+
+/// Pixels per point sample the automatic budget aims at: about 40,000 samples at 1280×720, where
+/// `points=40000 grid=40 unknown=trace` measured RMSE 0.0023 on Sponza at 2.1× `env-exact`'s speed
+/// (docs/techniques/environment-lighting.md).
+pub const PIXELS_PER_POINT: u32 = 24;
+/// The automatic budget's bounds on N_P.
+pub const AUTO_POINTS: std::ops::RangeInclusive<u32> = 10_000..=10_000_000;
+/// Samples per surface cell the automatic grid aims at (N_P / grid²: 25 at 40,000 and 40).
+pub const SAMPLES_PER_CELL: f32 = 25.0;
+
+/// Our defaults: the paper's, except both hemispheres (`sides=both`), rays whose pixel no sample
+/// saw traced (`unknown=trace`) and the sample budget chosen from the frame (`auto`).
 impl Default for DvfParams {
     fn default() -> Self {
-        Self {
-            rays: 128,
-            build_rays: 0,
-            points: 10_000_000,
-            rounding: Rounding::Ceil,
-            sampling: PointSampling::Hash,
-            grid: 77,
-            octahedral: 8,
-            task_points: 64,
-            workgroup: 1024,
-            rotate_about_normal: false,
-            unshadowed: Unshadowed::Sh,
-            atomics: Atomics::PerSample,
-            both_sides: true,
-            trace_unknown: false,
-        }
+        Self { both_sides: true, trace_unknown: true, auto: AutoBudget::ALL, ..Self::paper() }
     }
 }
 
@@ -114,24 +126,81 @@ impl DvfParams {
         base.read_keys(p)
     }
 
-    /// The paper's settings: as [`Default`] but front hemispheres only (`sides=front`).
+    /// The paper's settings (its Sponza configuration: N_P = 10M, a 77-cell grid, ceiling
+    /// rounding, front hemispheres only, unknown rays skipped).
     pub fn paper() -> Self {
-        Self { both_sides: false, ..Self::default() }
+        Self {
+            rays: 128,
+            build_rays: 0,
+            points: 10_000_000,
+            rounding: Rounding::Ceil,
+            sampling: PointSampling::Hash,
+            grid: 77,
+            octahedral: 8,
+            task_points: 64,
+            workgroup: 1024,
+            rotate_about_normal: false,
+            unshadowed: Unshadowed::Sh,
+            atomics: Atomics::PerSample,
+            both_sides: false,
+            trace_unknown: false,
+            auto: AutoBudget::default(),
+        }
+    }
+
+    /// The parameters for a frame of `pixels` pixels over `triangles` triangles, with the
+    /// automatic keys chosen:
+    /// - N_P = pixels / [`PIXELS_PER_POINT`], within [`AUTO_POINTS`]: the build's rays
+    ///   (N_P × N_r × sides) stay a fraction of the reference's (pixels × N_r);
+    /// - grid = √(N_P / [`SAMPLES_PER_CELL`]) cells along the longest axis, within 8..=77, so a
+    ///   surface cell holds about 25 samples;
+    /// - rounding: ceiling (the paper) unless there are more than 4 N_P triangles, where the
+    ///   ceiling's one sample per triangle would multiply the budget (1M triangles: 1M samples).
+    ///   Below that the ceiling adds at most one sample per triangle, as in the measured Sponza
+    ///   configuration (66K triangles, `points=40000`: about 100K samples).
+    pub fn for_frame(&self, pixels: u64, triangles: usize) -> DvfParams {
+        let mut p = *self;
+        if self.auto.points {
+            p.points = (pixels / PIXELS_PER_POINT as u64).clamp(*AUTO_POINTS.start() as u64, *AUTO_POINTS.end() as u64) as u32;
+        }
+        if self.auto.grid {
+            p.grid = ((p.points as f32 / SAMPLES_PER_CELL).sqrt().round() as u32).clamp(8, 77);
+        }
+        if self.auto.rounding {
+            p.rounding = if triangles as u64 > 4 * p.points as u64 { Rounding::Round } else { Rounding::Ceil };
+        }
+        p.auto = AutoBudget::default();
+        p
     }
 
     fn read_keys(self, p: &Params) -> Result<Self, ParamError> {
         let octahedral = p.u32("octahedral", self.octahedral, 1, grid::MAX_RESOLUTION)?;
+        // `auto` (the default) or a number; a number turns the key's automatic choice off.
+        let auto_or = |key: &str, auto: bool| -> Result<bool, ParamError> { Ok(p.text(key, if auto { "auto" } else { "" }) == "auto") };
+        let auto = AutoBudget {
+            points: auto_or("points", self.auto.points)?,
+            grid: auto_or("grid", self.auto.grid)?,
+            rounding: auto_or("rounding", self.auto.rounding)?,
+        };
+        let rounding_default = if self.rounding == Rounding::Round { "round" } else { "ceil" };
         Ok(Self {
+            auto,
             rays: p.u32("rays", self.rays, 1, 1 << 16)?,
             build_rays: p.u32("build_rays", self.build_rays, 0, 1 << 16)?,
-            points: p.u32("points", self.points, 0, 1 << 30)?,
-            rounding: if p.choice("rounding", "ceil", &["ceil", "round"])? == "round" { Rounding::Round } else { Rounding::Ceil },
+            points: if auto.points { self.points } else { p.u32("points", self.points, 0, 1 << 30)? },
+            rounding: if auto.rounding {
+                self.rounding
+            } else if p.choice("rounding", rounding_default, &["ceil", "round"])? == "round" {
+                Rounding::Round
+            } else {
+                Rounding::Ceil
+            },
             sampling: if p.choice("sampling", "hash", &["hash", "hammersley"])? == "hammersley" {
                 PointSampling::Hammersley
             } else {
                 PointSampling::Hash
             },
-            grid: p.u32("grid", self.grid, 1, 4096)?,
+            grid: if auto.grid { self.grid } else { p.u32("grid", self.grid, 1, 4096)? },
             octahedral,
             task_points: p.u32("task_points", self.task_points, 1, 1 << 20)?,
             workgroup: p.u32("workgroup", self.workgroup, 1, 1 << 16)?,
@@ -139,7 +208,7 @@ impl DvfParams {
             unshadowed: if p.choice("unshadowed", "sh", &["sh", "rays"])? == "rays" { Unshadowed::Rays } else { Unshadowed::Sh },
             atomics: if p.choice("atomics", "sample", &["sample", "ray"])? == "ray" { Atomics::PerRay } else { Atomics::PerSample },
             both_sides: p.choice("sides", if self.both_sides { "both" } else { "front" }, &["front", "both"])? == "both",
-            trace_unknown: p.choice("unknown", "skip", &["skip", "trace"])? == "trace",
+            trace_unknown: p.choice("unknown", if self.trace_unknown { "trace" } else { "skip" }, &["skip", "trace"])? == "trace",
         })
     }
 }

@@ -171,7 +171,12 @@ impl Technique for EnvDvf {
             self.sh = Some(stats.time("sh", || project_environment(env)));
         }
         let reuse = self.dvf.take().map(|d| d.masks);
-        let dvf = Dvf::build(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed, ctx.frame_index, reuse, &mut stats);
+        // The sample budget for this frame's size and triangle count (`points=auto` …).
+        let p = self.params.for_frame(ctx.width as u64 * ctx.height as u64, ctx.frame.scene.triangle_count());
+        let dvf = Dvf::build(&ctx.frame, &ctx.tracer, &p, self.settings.seed, ctx.frame_index, reuse, &mut stats);
+        stats.metrics.push(("points".to_owned(), p.points as f64));
+        stats.metrics.push(("grid".to_owned(), p.grid as f64));
+        stats.metrics.push(("build_rays".to_owned(), dvf.rays_traced as f64));
         stats.memory_bytes = stats.memory_bytes.max(dvf.memory_bytes());
         self.dvf = Some(dvf);
         Ok(stats)

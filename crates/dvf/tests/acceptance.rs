@@ -484,7 +484,9 @@ struct Run {
 }
 
 fn run(ctx: &FrameContext, g: &GBuffer, reference: &Image, pairs: &[&str]) -> Run {
-    let mut t = dvf(9, pairs);
+    // The paper's rule for rays no sample saw (skip), which the figures show.
+    let pairs: Vec<&str> = ["unknown=skip"].iter().chain(pairs).copied().collect();
+    let mut t = dvf(9, &pairs);
     let (img, _, rend) = render(&mut t, ctx, g);
     let hits = (0..img.pixels.len()).filter(|&i| g.is_hit(i)).count().max(1);
     Run { rmse: rmse(&img, reference, None).unwrap(), rays_per_pixel: rend.rays as f64 / hits as f64 }

@@ -1,8 +1,8 @@
 //! The DVF's defaults and `profile=paper`: ours traces both hemispheres (double-sided surfaces
-//! are common in real scenes), the paper's profile only the front one, and an explicit `sides`
-//! overrides either.
+//! are common in real scenes), traces rays no sample saw, and sizes the sample budget from the
+//! frame; the paper's profile is its Sponza configuration; an explicit key overrides either.
 
-use glimpse_dvf::DvfParams;
+use glimpse_dvf::{AutoBudget, DvfParams, Rounding};
 use glimpse_render::Params;
 
 fn read(pairs: &[&str]) -> DvfParams {
@@ -10,12 +10,36 @@ fn read(pairs: &[&str]) -> DvfParams {
 }
 
 #[test]
-fn default_is_double_sided_and_paper_profile_is_front_only() {
-    assert!(read(&[]).both_sides);
-    assert!(!read(&["profile=paper"]).both_sides);
+fn defaults_and_the_paper_profile() {
+    let ours = read(&[]);
+    assert!(ours.both_sides && ours.trace_unknown && ours.auto == AutoBudget::ALL);
+    let paper = read(&["profile=paper"]);
+    assert_eq!((paper.points, paper.grid, paper.rounding), (10_000_000, 77, Rounding::Ceil));
+    assert!(!paper.both_sides && !paper.trace_unknown && paper.auto == AutoBudget::default());
+    assert_eq!(paper, DvfParams::paper(), "the profile is the paper's settings, nothing else");
     assert!(!read(&["sides=front"]).both_sides);
     assert!(read(&["profile=paper", "sides=both"]).both_sides);
-    // The profile changes nothing else.
-    assert_eq!(DvfParams { both_sides: true, ..read(&["profile=paper"]) }, read(&[]));
+    assert!(!read(&["unknown=skip"]).trace_unknown);
+    // An explicit number turns that key's automatic choice off, and only that one.
+    let fixed = read(&["points=40000"]);
+    assert_eq!((fixed.points, fixed.auto.points, fixed.auto.grid), (40_000, false, true));
     assert!(DvfParams::default().read(&Params::parse(&["profile=fast"]).unwrap()).is_err());
+    assert!(DvfParams::default().read(&Params::parse(&["points=many"]).unwrap()).is_err());
+}
+
+#[test]
+fn the_automatic_budget_follows_the_frame() {
+    let auto = read(&[]);
+    // 1280×720: about the 40,000 samples and 40 cells measured best on Sponza.
+    let hd = auto.for_frame(1280 * 720, 66_000);
+    assert_eq!((hd.points, hd.grid, hd.rounding), (38_400, 39, Rounding::Ceil));
+    // Tiny frames keep a floor of 10,000 samples; huge ones stop at the paper's 10M.
+    assert_eq!(auto.for_frame(64 * 64, 12).points, 10_000);
+    assert_eq!(auto.for_frame(1 << 40, 12).points, 10_000_000);
+    assert_eq!(auto.for_frame(1 << 40, 12).grid, 77);
+    // More triangles than samples: rounding, not one sample per triangle.
+    assert_eq!(auto.for_frame(320 * 180, 1_041_765).rounding, Rounding::Round);
+    // Explicit keys are kept.
+    let fixed = read(&["points=5000", "grid=12", "rounding=ceil"]).for_frame(1280 * 720, 2_000_000);
+    assert_eq!((fixed.points, fixed.grid, fixed.rounding), (5000, 12, Rounding::Ceil));
 }

@@ -102,6 +102,13 @@ impl Params {
         Ok(v)
     }
 
+    /// The raw value (or `default`), for keys that take a word or a number (`points=auto`).
+    pub fn text(&self, key: &str, default: &str) -> String {
+        let v = self.raw(key).cloned().unwrap_or_else(|| default.to_owned());
+        self.effective.borrow_mut().insert(key.to_owned(), v.clone());
+        v
+    }
+
     /// One of `choices`.
     pub fn choice(&self, key: &str, default: &str, choices: &[&str]) -> Result<String, ParamError> {
         let v = self.raw(key).cloned().unwrap_or_else(|| default.to_owned());
