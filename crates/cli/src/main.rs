@@ -31,7 +31,8 @@ struct Cli {
 
 #[derive(Subcommand)]
 enum Command {
-    /// Every technique on the built-in Cornell box beside its reference, as a report.
+    /// The five papers on one small built-in scene (cornell-lit): every approximate technique
+    /// beside its reference, as a report grouped by paper.
     Demo(eval_cmd::DemoArgs),
     /// Render one image of a scene with one technique.
     Render(render_cmd::RenderArgs),

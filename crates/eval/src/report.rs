@@ -7,6 +7,30 @@ use anyhow::{Context, Result};
 use std::fmt::Write;
 use std::path::Path;
 
+/// The paper a technique implements or is a baseline of (the report groups its rows by it).
+pub fn paper_of(technique: &str) -> &'static str {
+    match technique {
+        "ao-roma" | "soft-roma" | "gi-roma" | "ao-df" | "soft-df" => {
+            "ROMA: ray-aligned occupancy map array (and its distance-field baseline)"
+        }
+        "lights-voxarray" | "lights-shadowmap" | "lights-ism" => "Directional voxelization array (and its shadow-map and ISM baselines)",
+        "env-dvf" => "Discrete visibility fields",
+        "vpl-lightcuts" | "vpl-sst" | "vpl-rtslc" => "Stochastic light cuts over VPLs (and its SST and RTSLC variants)",
+        "wavecache" => "Haar-wavelet radiance caching",
+        _ => "Exact references",
+    }
+}
+
+/// The order papers are listed in.
+const PAPERS: [&str; 6] = [
+    "ROMA: ray-aligned occupancy map array (and its distance-field baseline)",
+    "Directional voxelization array (and its shadow-map and ISM baselines)",
+    "Discrete visibility fields",
+    "Stochastic light cuts over VPLs (and its SST and RTSLC variants)",
+    "Haar-wavelet radiance caching",
+    "Exact references",
+];
+
 pub fn write_html(r: &EvalResults, path: &Path) -> Result<()> {
     let mut h = String::new();
     let scene = html_escape(&r.scene);
@@ -39,24 +63,31 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
             .join(", ")
     };
     let metric = |run: &crate::experiment::Run, k: &str| run.metrics.get(k).map_or("–".into(), |v| format!("{v:.5}"));
-    for run in &r.runs {
-        let _ = write!(
-            h,
-            "<tr><td>{}</td><td>{}{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-            html_escape(&run.technique),
-            html_escape(&run.reference),
-            if run.reference_cached { " (cached)" } else { "" },
-            run.ms["prepare"],
-            run.ms["render"],
-            run.ms["total"],
-            run.memory_bytes as f64 / 1048576.0,
-            metric(run, "rmse"),
-            metric(run, "relmse"),
-            metric(run, "psnr"),
-            metric(run, "ssim"),
-            metric(run, "flip"),
-            html_escape(&other_metrics(run))
-        );
+    let grouped = PAPERS.iter().flat_map(|paper| {
+        let runs: Vec<_> = r.runs.iter().filter(|run| paper_of(&run.technique) == *paper).collect();
+        (!runs.is_empty()).then_some((paper, runs))
+    });
+    for (paper, runs) in grouped {
+        let _ = write!(h, r#"<tr><th colspan="12" style="text-align:left">{}</th></tr>"#, html_escape(paper));
+        for run in runs {
+            let _ = write!(
+                h,
+                "<tr><td>{}</td><td>{}{}</td><td>{:.1}</td><td>{:.1}</td><td>{:.1}</td><td>{:.2}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                html_escape(&run.technique),
+                html_escape(&run.reference),
+                if run.reference_cached { " (cached)" } else { "" },
+                run.ms["prepare"],
+                run.ms["render"],
+                run.ms["total"],
+                run.memory_bytes as f64 / 1048576.0,
+                metric(run, "rmse"),
+                metric(run, "relmse"),
+                metric(run, "psnr"),
+                metric(run, "ssim"),
+                metric(run, "flip"),
+                html_escape(&other_metrics(run))
+            );
+        }
     }
     h += "</table>";
     for sk in &r.skipped {

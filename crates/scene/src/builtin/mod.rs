@@ -3,6 +3,7 @@
 
 mod cornell;
 mod cornell_dynamic;
+mod cornell_lit;
 mod deforming;
 mod glossy;
 mod many_lights;
@@ -13,13 +14,14 @@ use glimpse_core::{Vec2, Vec3};
 
 pub use cornell::cornell;
 pub use cornell_dynamic::cornell_dynamic;
+pub use cornell_lit::cornell_lit;
 pub use deforming::deforming;
 pub use glossy::glossy;
 pub use many_lights::{DEFAULT_LIGHT_COUNT, many_lights};
 pub use sky::sky;
 
 /// Every built-in scene, in the order `glimpse scenes` lists them.
-pub const NAMES: &[&str] = &["cornell", "cornell-dynamic", "many-lights", "deforming", "sky", "glossy"];
+pub const NAMES: &[&str] = &["cornell", "cornell-lit", "cornell-dynamic", "many-lights", "deforming", "sky", "glossy"];
 
 /// Animated built-in scenes are authored over `0..CLIP_S` seconds: keyframe tracks do not loop,
 /// so each one covers the whole clip (and holds its last key after it).
@@ -28,6 +30,9 @@ pub const CLIP_S: f32 = 10.0;
 pub fn describe(name: &str) -> &'static str {
     match name {
         "cornell" => "the Cornell box with its published dimensions (metres) and ceiling area light",
+        "cornell-lit" => {
+            "the Cornell box with its area light, four point lights inside and a smooth sky through the open front: every technique applies (the demo's scene)"
+        }
         "cornell-dynamic" => "the Cornell box with a spinning block, a bouncing ball and a sliding cylinder (10 s clip)",
         "many-lights" => {
             "a night-time town of boxes, towers and domes lit only by 1,024 small coloured point lights orbiting in the streets"
@@ -46,6 +51,7 @@ pub fn describe(name: &str) -> &'static str {
 pub fn build(name: &str) -> Result<Scene, SceneError> {
     let scene = match name {
         "cornell" => cornell(),
+        "cornell-lit" => cornell_lit(),
         "cornell-dynamic" => cornell_dynamic(),
         "many-lights" => many_lights(DEFAULT_LIGHT_COUNT),
         "deforming" => deforming(),
@@ -209,7 +215,7 @@ mod tests {
             assert!(scene.triangle_count() <= 50_000, "{name} is too heavy for the tests");
             assert!(scene.camera.is_some(), "{name} has no camera");
             assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
-            assert_eq!(scene.is_animated(), !["cornell", "glossy"].contains(name), "{name}: only cornell and glossy are static");
+            assert_eq!(scene.is_animated(), !["cornell", "cornell-lit", "glossy"].contains(name), "{name}: only cornell, cornell-lit and glossy are static");
         }
     }
 
