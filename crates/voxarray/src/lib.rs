@@ -18,6 +18,7 @@
 pub mod batch;
 pub mod compress;
 pub mod directions;
+pub mod disk_cache;
 pub mod dynamic;
 pub mod query;
 pub mod row;

@@ -14,6 +14,7 @@
 //! Shaded points move `normal_offset` cells along their normal before the query (see
 //! [`crate::query`] for the bias).
 
+use crate::disk_cache;
 use crate::dynamic::{self, Instanced};
 use crate::{VoxArray, VoxArrayParams};
 use glimpse_core::{Image, Ray, Vec3};
@@ -89,6 +90,8 @@ pub struct LightsVoxArray {
     /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
     /// reported in `Stats::metrics`, so `glimpse eval` lists them).
     pub epsilon: bool,
+    /// Load and store a static scene's compressed array in the disk cache (`disk_cache`).
+    pub disk_cache: bool,
 }
 
 impl LightsVoxArray {
@@ -97,7 +100,7 @@ impl LightsVoxArray {
             id: "lights-voxarray",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon",
+            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon, disk_cache",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
@@ -124,6 +127,7 @@ impl LightsVoxArray {
             settings: *settings,
             structure: None,
             epsilon: params.bool("epsilon", true)?,
+            disk_cache: params.bool("disk_cache", true)?,
         })
     }
 }
@@ -153,15 +157,31 @@ impl Technique for LightsVoxArray {
                 }
             }
         } else if self.structure.is_none() {
-            let p = VoxArrayParams { compress: None, ..self.params };
-            let mut a = stats.time("alg1 voxelize", || VoxArray::build(&ctx.frame, &p));
-            if let Some(c) = self.params.compress {
-                stats.time("alg2 compress", || match &mut a {
-                    VoxArray::R32(x) => x.compress(&c),
-                    VoxArray::R64(x) => x.compress(&c),
-                    VoxArray::R128(x) => x.compress(&c),
-                });
-            }
+            let triangles = ctx.frame.world_triangles();
+            // A static scene's compressed array is cached on disk (see `disk_cache`).
+            let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::cache_dir() } else { None };
+            let path = cache.map(|dir| disk_cache::path_for(&dir, &triangles, &self.params));
+            let loaded = path.as_ref().and_then(|path| stats.time("load cached array", || disk_cache::load(path, &self.params)));
+            let a = match loaded {
+                Some(a) => a,
+                None => {
+                    let p = VoxArrayParams { compress: None, ..self.params };
+                    let mut a = stats.time("alg1 voxelize", || VoxArray::from_triangles(&triangles, &p));
+                    if let Some(c) = self.params.compress {
+                        stats.time("alg2 compress", || match &mut a {
+                            VoxArray::R32(x) => x.compress(&c),
+                            VoxArray::R64(x) => x.compress(&c),
+                            VoxArray::R128(x) => x.compress(&c),
+                        });
+                    }
+                    if let Some(path) = &path
+                        && let Err(e) = stats.time("store cached array", || disk_cache::store(path, &a))
+                    {
+                        eprintln!("warning: lights-voxarray: cannot cache the array: {e}");
+                    }
+                    a
+                }
+            };
             self.structure = Some(Structure::Static(a));
         }
         stats.memory_bytes = self.structure.as_ref().map_or(0, |s| s.memory_bytes());

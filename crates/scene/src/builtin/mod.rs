@@ -215,7 +215,11 @@ mod tests {
             assert!(scene.triangle_count() <= 50_000, "{name} is too heavy for the tests");
             assert!(scene.camera.is_some(), "{name} has no camera");
             assert!(scene.warnings.is_empty(), "{name}: {:?}", scene.warnings);
-            assert_eq!(scene.is_animated(), !["cornell", "cornell-lit", "glossy"].contains(name), "{name}: only cornell, cornell-lit and glossy are static");
+            assert_eq!(
+                scene.is_animated(),
+                !["cornell", "cornell-lit", "glossy"].contains(name),
+                "{name}: only cornell, cornell-lit and glossy are static"
+            );
         }
     }
 
