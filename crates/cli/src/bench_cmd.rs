@@ -33,6 +33,8 @@ pub struct RaysArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    #[command(flatten)]
+    pub overrides: crate::scene_args::SceneArgs,
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
@@ -64,6 +66,7 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         radius: a.radius,
         seed: a.seed,
         only: a.only,
+        overrides: a.overrides.overrides(),
     };
     let r = run_bench(&cfg)?;
     if a.json {

@@ -40,13 +40,11 @@ pub struct EvalArgs {
     /// light cuts) are judged after N frames of accumulation; timings are per frame.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub frames: u32,
-    /// Pixel filter the primary samples are drawn from: box (default), tent, gaussian or
-    /// pixel-centre (overrides the scene's). With --frames N each frame shades the next sample.
-    #[arg(long, value_name = "FILTER", value_parser = |s: &str| glimpse_scene::Filter::from_name(s))]
-    pub filter: Option<glimpse_scene::Filter>,
     /// Output directory (report.html, results.json, images).
     #[arg(short, long)]
     pub output: PathBuf,
+    #[command(flatten)]
+    pub overrides: crate::scene_args::SceneArgs,
 }
 
 #[derive(Args)]
@@ -73,7 +71,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         sweep: !a.no_sweep,
         exposure: a.exposure,
         frames: a.frames,
-        filter: a.filter,
+        overrides: a.overrides.overrides(),
         time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
@@ -103,7 +101,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         sweep: true,
         exposure: 0.0,
         frames: 1,
-        filter: None,
+        overrides: Default::default(),
         time_reference: false,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)

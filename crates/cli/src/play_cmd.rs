@@ -31,6 +31,8 @@ pub struct PlayArgs {
     /// Write the frames as DIR/frame-NNNN.png.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    #[command(flatten)]
+    pub overrides: crate::scene_args::SceneArgs,
 }
 
 pub fn run(a: PlayArgs) -> Result<()> {
@@ -53,6 +55,7 @@ pub fn run(a: PlayArgs) -> Result<()> {
         params: a.set,
         out_dir: a.output,
         exposure: a.exposure,
+        overrides: a.overrides.overrides(),
     };
     let fmt = |ms: &std::collections::BTreeMap<String, f64>| ms.iter().map(|(k, v)| format!("{k} {v:.1}")).collect::<Vec<_>>().join(", ");
     let frames = run_play(&cfg, &glimpse_eval::registry(), |f| println!("frame {:>4} t={:.3}s: {} ms", f.frame, f.time, fmt(&f.ms)))?;

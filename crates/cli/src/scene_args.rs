@@ -2,10 +2,10 @@
 //! lights and a camera given on the command line, then the default light for a scene that still
 //! has none (see `glimpse_scene::auto`).
 
-use anyhow::{Context, Result, bail};
+use anyhow::{Context, Result};
 use clap::Args;
-use glimpse_core::{Image, Vec3};
-use glimpse_scene::{Camera, Environment, Light, Scene};
+use glimpse_core::Vec3;
+use glimpse_scene::{Camera, Light, Scene};
 use std::path::PathBuf;
 
 #[derive(Args, Clone, Debug, Default)]
@@ -40,37 +40,23 @@ pub struct SceneArgs {
 }
 
 impl SceneArgs {
+    /// The overrides as the library takes them.
+    pub fn overrides(&self) -> glimpse_scene::SceneOverrides {
+        glimpse_scene::SceneOverrides {
+            filter: self.filter,
+            film_samples: self.film_samples,
+            env: self.env.clone(),
+            env_scale: self.env_scale,
+            sun: self.sun,
+            sun_radiance: self.sun_radiance,
+            lights: self.lights.clone(),
+            camera: self.camera.clone(),
+        }
+    }
+
     /// Applies the overrides, then the default light if the scene still has none (said on stderr).
     pub fn apply(&self, scene: &mut Scene) -> Result<()> {
-        if let Some(filter) = self.filter {
-            scene.film.filter = filter;
-        }
-        if let Some(n) = self.film_samples {
-            scene.film.samples = n;
-        }
-        if !(self.env_scale.is_finite() && self.env_scale >= 0.0) {
-            bail!("--env-scale {}: must be a finite number ≥ 0", self.env_scale);
-        }
-        if !(self.sun_radiance.is_finite() && self.sun_radiance >= 0.0) {
-            bail!("--sun-radiance {}: must be a finite number ≥ 0", self.sun_radiance);
-        }
-        if let Some(path) = &self.env {
-            let ext = path.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
-            if !matches!(ext.as_deref(), Some("hdr" | "exr")) {
-                bail!("--env {}: the environment map must be a .hdr or .exr file", path.display());
-            }
-            let image = Image::read(path).with_context(|| format!("--env {}", path.display()))?;
-            scene.environment = Some(Environment::new(image, self.env_scale));
-        }
-        if let Some(dir) = self.sun {
-            // The light travels away from the sun.
-            scene.lights.push(Light::directional(-dir, Vec3::splat(self.sun_radiance)));
-        }
-        scene.lights.extend(self.lights.iter().cloned());
-        if let Some(camera) = &self.camera {
-            scene.camera = Some(camera.clone());
-        }
-        if glimpse_scene::auto::ensure_light(scene) {
+        if self.overrides().apply(scene).map_err(anyhow::Error::msg)? {
             eprintln!("note: {}", glimpse_scene::auto::DEFAULT_LIGHT_NOTE);
         }
         Ok(())

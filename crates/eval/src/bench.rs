@@ -80,6 +80,8 @@ pub struct BenchConfig {
     pub seed: u64,
     /// Backends to run besides `exact` (empty: all).
     pub only: Vec<String>,
+    /// Command-line scene overrides (`--env`, `--sun`, `--light`, `--camera`, …).
+    pub overrides: glimpse_scene::SceneOverrides,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -126,7 +128,8 @@ fn answer_batches(vis: &dyn Visibility, rays: &[(Ray, f32)], out: &mut [bool]) {
 }
 
 pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
-    let scene = glimpse_scene::load(&cfg.scene_spec)?;
+    let mut scene = glimpse_scene::load(&cfg.scene_spec)?;
+    cfg.overrides.apply(&mut scene).map_err(anyhow::Error::msg)?;
     let frame = scene.at(0.0);
     let exact = ExactTracer::build(&frame);
     let camera = scene.camera_or_default(cfg.width as f32 / cfg.height as f32);

@@ -44,8 +44,8 @@ pub struct EvalConfig {
     /// time: temporal techniques (ROMA, light cuts) are judged after N frames of accumulation, as
     /// they are used. See [`render_frames`].
     pub frames: u32,
-    /// The pixel filter (`--filter`); `None` keeps the scene's (`[film] filter`, box by default).
-    pub filter: Option<glimpse_scene::Filter>,
+    /// Command-line scene overrides (`--env`, `--sun`, `--light`, `--camera`, `--filter`, …).
+    pub overrides: glimpse_scene::SceneOverrides,
     /// Also time each reference at the technique's own `spp` and seed (not cached), for the
     /// speed-up over the exact reference on the same GBuffer (`Run::reference_ms`).
     pub time_reference: bool,
@@ -152,7 +152,10 @@ fn slug(id: &str) -> String {
 }
 
 pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<EvalResults> {
-    let scene: Scene = glimpse_scene::load(&cfg.scene_spec)?;
+    let mut scene: Scene = glimpse_scene::load(&cfg.scene_spec)?;
+    if cfg.overrides.apply(&mut scene).map_err(anyhow::Error::msg)? {
+        log(&format!("note: {}", glimpse_scene::auto::DEFAULT_LIGHT_NOTE));
+    }
     for w in &scene.warnings {
         log(&format!("warning: {w}"));
     }
@@ -186,9 +189,6 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
 
     let sw = Stopwatch::start();
     let mut ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
-    if let Some(filter) = cfg.filter {
-        ctx.film.filter = filter;
-    }
     let frames = cfg.frames.max(1);
     let gbuffer = ctx.gbuffer();
     let gbuffer_ms = sw.ms();
@@ -227,6 +227,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                     &ref_settings.seed.to_string(),
                     &cfg.time.to_string(),
                     &format!("film {} x{frames}", ctx.film.filter.name()),
+                    &cfg.overrides.cache_key(),
                 ],
                 &cfg.scene_spec,
             );

@@ -24,6 +24,8 @@ pub struct PlayConfig {
     pub params: Vec<String>,
     pub out_dir: Option<PathBuf>,
     pub exposure: f32,
+    /// Command-line scene overrides (`--env`, `--sun`, `--light`, `--camera`, …).
+    pub overrides: glimpse_scene::SceneOverrides,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -35,7 +37,8 @@ pub struct FrameTiming {
 }
 
 pub fn run_play(cfg: &PlayConfig, registry: &Registry, mut log: impl FnMut(&FrameTiming)) -> Result<Vec<FrameTiming>> {
-    let scene = glimpse_scene::load(&cfg.scene_spec)?;
+    let mut scene = glimpse_scene::load(&cfg.scene_spec)?;
+    cfg.overrides.apply(&mut scene).map_err(anyhow::Error::msg)?;
     let params = Params::parse(&cfg.params)?;
     let mut technique = registry.create(&cfg.technique, &scene, &Settings { spp: cfg.spp, seed: cfg.seed }, &params)?;
     if let Some(dir) = &cfg.out_dir {

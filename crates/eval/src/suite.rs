@@ -302,7 +302,7 @@ pub fn run_suite(cfg: &SuiteConfig, registry: &Registry, mut log: impl FnMut(&st
                 sweep: false,
                 exposure: 0.0,
                 frames,
-                filter: None,
+                overrides: Default::default(),
                 time_reference: true,
             };
             let results =

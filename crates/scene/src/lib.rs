@@ -19,6 +19,7 @@ pub mod light;
 pub mod mitsuba_loader;
 pub mod model;
 pub mod obj_loader;
+pub mod overrides;
 pub mod ply_loader;
 pub mod procedural;
 pub mod render_hints;
@@ -33,6 +34,7 @@ pub use film::{Film, Filter};
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
 pub use light::{Light, LightKind};
 pub use model::{Instance, Material, MaterialModel, Mesh, Scene};
+pub use overrides::SceneOverrides;
 pub use render_hints::RenderHints;
 
 use std::path::Path;
