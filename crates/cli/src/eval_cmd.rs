@@ -55,6 +55,9 @@ pub struct DemoArgs {
 }
 
 pub fn run(a: EvalArgs) -> Result<()> {
+    for t in &a.techniques {
+        crate::args::check_technique(t)?;
+    }
     let cfg = EvalConfig {
         scene_spec: a.scene,
         techniques: a.techniques,

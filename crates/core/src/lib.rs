@@ -17,6 +17,7 @@ pub mod mutate;
 pub mod ray;
 pub mod sampling;
 pub mod sh;
+pub mod suggest;
 
 pub use aabb::Aabb;
 pub use frame::Frame;

@@ -11,8 +11,8 @@ pub enum ParamError {
     Syntax(String),
     #[error("parameter '{key}' = '{value}': {message}")]
     Invalid { key: String, value: String, message: String },
-    #[error("unknown parameter '{key}' for {technique} (known: {known})")]
-    Unknown { key: String, technique: String, known: String },
+    #[error("unknown parameter '{key}' for {technique}{suggestion} (known: {known})")]
+    Unknown { key: String, technique: String, known: String, suggestion: String },
 }
 
 #[derive(Clone, Debug, Default)]
@@ -126,6 +126,7 @@ impl Params {
             None => Ok(()),
             Some(k) => Err(ParamError::Unknown {
                 key: k.clone(),
+                suggestion: glimpse_core::suggest::did_you_mean(k, read.iter().map(String::as_str)),
                 technique: technique.to_owned(),
                 known: if read.is_empty() { "none".into() } else { read.iter().cloned().collect::<Vec<_>>().join(", ") },
             }),
