@@ -15,6 +15,9 @@ pub enum RenderError {
     Unsupported { technique: String, message: String },
     #[error("unknown technique '{id}' (known: {known})")]
     UnknownTechnique { id: String, known: String },
+    /// A structure a technique would build does not fit the memory budget (`--max-memory`).
+    #[error(transparent)]
+    Memory(#[from] glimpse_core::memory_budget::BudgetError),
 }
 
 /// What a technique needs from a scene to compute anything meaningful.

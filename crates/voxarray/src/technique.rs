@@ -145,6 +145,14 @@ impl Technique for LightsVoxArray {
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = Stats::default();
         let scene = ctx.scene();
+        // Alg. 1 builds the plain array (d² voxelizations of N³ bits) before any compression.
+        if self.structure.is_none() {
+            let (n, d) = (self.params.resolution as u64, self.params.directions as u64);
+            glimpse_core::memory_budget::check(
+                format!("lights-voxarray: the {n}³ × {d}² array of voxelizations before compression"),
+                d * d * n * n * n / 8,
+            )?;
+        }
         if scene.meshes.iter().any(|m| m.deformation.is_some()) {
             let p = VoxArrayParams { compress: None, ..self.params };
             self.structure = Some(Structure::Deforming(stats.time("alg6 rebuild", || dynamic::rebuild(&ctx.frame, &p))));
