@@ -2,28 +2,17 @@
 //! directional lights cast shadows through orthographic maps fitted to the scene, and the
 //! imperfect shadow maps' light leaks (positive signed ε_s: too much light) stay bounded.
 
-use glimpse_core::{Mat4, Vec2, Vec3};
+use glimpse_core::{Mat4, Vec3};
 use glimpse_render::{FrameContext, Params, Registry, Settings, Stats};
 use glimpse_scene::{Camera, Light, Material, Mesh, Scene};
-
-fn quad(name: &str, material: u32, q: [Vec3; 4]) -> Mesh {
-    Mesh {
-        name: name.into(),
-        material,
-        positions: q.to_vec(),
-        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        ..Default::default()
-    }
-}
 
 /// A floor with a square blocker above it, lit by the sun alone.
 fn sun_over_blocker() -> Scene {
     let mut s = Scene { name: "sun".into(), ..Default::default() };
     let white = s.add_material(Material::diffuse("white", Vec3::splat(0.8)));
     let c = Vec3::new;
-    s.add_mesh(quad("floor", white, [c(-3., 0., -3.), c(3., 0., -3.), c(3., 0., 3.), c(-3., 0., 3.)]), Mat4::IDENTITY);
-    s.add_mesh(quad("blocker", white, [c(-0.7, 1., -0.7), c(0.7, 1., -0.7), c(0.7, 1., 0.7), c(-0.7, 1., 0.7)]), Mat4::IDENTITY);
+    s.add_mesh(Mesh::quad("floor", white, [c(-3., 0., -3.), c(3., 0., -3.), c(3., 0., 3.), c(-3., 0., 3.)]), Mat4::IDENTITY);
+    s.add_mesh(Mesh::quad("blocker", white, [c(-0.7, 1., -0.7), c(0.7, 1., -0.7), c(0.7, 1., 0.7), c(-0.7, 1., 0.7)]), Mat4::IDENTITY);
     s.lights.push(Light::directional(Vec3::new(0.4, -1.0, 0.3), Vec3::splat(3.0)));
     s.camera = Some(Camera::look_at(Vec3::new(0.0, 5.0, 6.0), Vec3::ZERO, Vec3::Y, 50.0));
     s

@@ -2,7 +2,7 @@
 //! film's filter, so averaging frames anti-aliases, and a technique and its reference shade
 //! the same samples.
 
-use glimpse_core::{Mat4, Vec2, Vec3};
+use glimpse_core::{Mat4, Vec3};
 use glimpse_eval::experiment::render_frames;
 use glimpse_render::{FrameContext, Params, Registry, Settings};
 use glimpse_scene::{Camera, Filter, Light, Material, Mesh, Scene};
@@ -13,14 +13,7 @@ fn half_covered(filter: Filter) -> Scene {
     let mut s = Scene { name: "edge".into(), ..Default::default() };
     let white = s.add_material(Material::diffuse("white", Vec3::ONE));
     let c = Vec3::new;
-    let mesh = Mesh {
-        name: "square".into(),
-        material: white,
-        positions: vec![c(-10., -10., 0.), c(0., -10., 0.), c(0., 10., 0.), c(-10., 10., 0.)],
-        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        ..Default::default()
-    };
+    let mesh = Mesh::quad("square", white, [c(-10., -10., 0.), c(0., -10., 0.), c(0., 10., 0.), c(-10., 10., 0.)]);
     s.add_mesh(mesh, Mat4::IDENTITY);
     s.lights.push(Light::directional(Vec3::new(0.0, 0.0, -1.0), Vec3::splat(std::f32::consts::PI)));
     s.camera = Some(Camera::look_at(Vec3::new(0.0, 0.0, 5.0), Vec3::ZERO, Vec3::Y, 20.0));

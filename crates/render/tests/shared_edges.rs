@@ -6,20 +6,9 @@
 //! land exactly on the shared edges (a square image looking along an axis of the box puts its
 //! diagonal pixels on the wall/wall edges), at several resolutions.
 
-use glimpse_core::{Mat4, Vec2, Vec3};
+use glimpse_core::{Mat4, Vec3};
 use glimpse_render::{FrameContext, Params, Registry, Settings};
 use glimpse_scene::{Camera, Light, Material, Mesh, Scene};
-
-fn quad(name: &str, material: u32, q: [Vec3; 4]) -> Mesh {
-    Mesh {
-        name: name.into(),
-        material,
-        positions: q.to_vec(),
-        uvs: vec![Vec2::ZERO, Vec2::X, Vec2::ONE, Vec2::Y],
-        indices: vec![[0, 1, 2], [0, 2, 3]],
-        ..Default::default()
-    }
-}
 
 /// The box [-1, 1]³ open at z = +1, one mesh per wall, lit by a point light inside it.
 fn room(camera: Camera) -> Scene {
@@ -34,7 +23,7 @@ fn room(camera: Camera) -> Scene {
         ("right", [c(1., -1., -1.), c(1., 1., -1.), c(1., 1., 1.), c(1., -1., 1.)]),
     ];
     for (name, q) in walls {
-        s.add_mesh(quad(name, white, q), Mat4::IDENTITY);
+        s.add_mesh(Mesh::quad(name, white, q), Mat4::IDENTITY);
     }
     s.lights.push(Light::point(Vec3::new(0.2, 0.3, 0.1), Vec3::splat(1.0)));
     s.camera = Some(camera);

@@ -20,6 +20,11 @@ pub struct Mesh {
 }
 
 impl Mesh {
+    /// One planar quad (corners in order) as two triangles, uvs over [0, 1]².
+    pub fn quad(name: &str, material: u32, corners: [Vec3; 4]) -> Mesh {
+        crate::builtin::quads_mesh(name, material, &[corners])
+    }
+
     pub fn bounds(&self) -> Aabb {
         Aabb::from_points(&self.positions)
     }
