@@ -71,8 +71,10 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let mut technique = registry.create(&a.technique, &scene, &settings, &params)?;
 
     let total = Stopwatch::start();
-    let mut ctx = FrameContext::new(&scene, a.time, width, height);
-    let prepare = technique.prepare(&ctx)?;
+    let sw = Stopwatch::start();
+    let mut ctx = with_spinner("building the scene's tracer", || FrameContext::new(&scene, a.time, width, height));
+    let tracer_ms = sw.ms();
+    let prepare = with_spinner(&format!("preparing {}", a.technique), || technique.prepare(&ctx))?;
     let (image, render) = render_film(technique.as_mut(), &mut ctx)?;
     let total_ms = total.ms();
 
@@ -83,20 +85,58 @@ pub fn run(a: RenderArgs) -> Result<()> {
         0 => "no rays traced".to_owned(),
         rays => format!("{:.2} Mrays/s (visibility queries during render)", rays as f64 / (render.total_ms().max(1e-9) * 1e3)),
     };
+    // Every stage, so the parts add up to the total: the tracer, the technique's own stages, and
+    // what is neither (the GBuffers, untimed measurements such as ε, writing the image).
+    let stages = |s: &glimpse_render::Stats| s.stages.iter().map(|(n, ms)| format!("{n} {ms:.1}")).collect::<Vec<_>>().join(", ");
+    let other = total_ms - tracer_ms - prepare.total_ms() - render.total_ms();
     println!(
-        "{} on {} at {width}x{height}, {} spp, {} filter x {} samples: prepare {:.1} ms, render {:.1} ms, total {:.1} ms, {} -> {}",
+        "{} on {} at {width}x{height}, {} spp, {} filter x {} samples: tracer {tracer_ms:.1} ms + prepare {:.1} ms [{}] + render {:.1} ms [{}] + other {other:.1} ms (GBuffers, untimed measurements) = total {:.1} ms, {} -> {}",
         a.technique,
         a.scene,
         spp,
         ctx.film.filter.name(),
         ctx.film.samples,
         prepare.total_ms(),
+        stages(&prepare),
         render.total_ms(),
+        stages(&render),
         total_ms,
         throughput,
         a.output.display()
     );
     Ok(())
+}
+
+/// Runs `f`, showing a spinner named `label` with the elapsed time if it takes longer than a
+/// second (on a terminal only: indicatif draws nothing when stderr is not one).
+pub fn with_spinner<T>(label: &str, f: impl FnOnce() -> T) -> T {
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let watcher = {
+        let (done, label) = (done.clone(), label.to_owned());
+        std::thread::spawn(move || {
+            let start = std::time::Instant::now();
+            let mut spinner: Option<indicatif::ProgressBar> = None;
+            while !done.load(std::sync::atomic::Ordering::Relaxed) {
+                std::thread::park_timeout(Duration::from_millis(100));
+                if spinner.is_none() && start.elapsed() > Duration::from_secs(1) {
+                    let s = indicatif::ProgressBar::new_spinner().with_message(label.clone());
+                    s.set_style(indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("valid template"));
+                    spinner = Some(s);
+                }
+                if let Some(s) = &spinner {
+                    s.tick();
+                }
+            }
+            if let Some(s) = spinner {
+                s.finish_and_clear();
+            }
+        })
+    };
+    let out = f();
+    done.store(true, std::sync::atomic::Ordering::Relaxed);
+    watcher.thread().unpark();
+    let _ = watcher.join();
+    out
 }
 
 /// Renders `ctx.film.samples` passes, pass `p` shading primary sample `p` of every pixel (and

@@ -1,0 +1,60 @@
+//! Long steps show progress, and the summary's parts add up to its total (issue #16).
+
+use std::process::Command;
+
+/// The summary's "tracer A ms + prepare B ms [...] + render C ms [...] + other D ms (...) = total E ms".
+fn parts(summary: &str) -> (Vec<f64>, f64) {
+    let number_before = |key: &str| -> f64 {
+        let at = summary.find(key).unwrap_or_else(|| panic!("no '{key}' in {summary}")) + key.len();
+        summary[at..].trim_start().split(' ').next().unwrap().parse().unwrap()
+    };
+    (
+        vec![number_before("tracer"), number_before("+ prepare"), number_before("+ render"), number_before("+ other")],
+        number_before("= total"),
+    )
+}
+
+#[test]
+fn the_summary_lists_every_stage_and_they_add_up() {
+    let out = std::env::temp_dir().join(format!("glimpse-progress-{}.png", std::process::id()));
+    let o = Command::new(env!("CARGO_BIN_EXE_glimpse"))
+        .args(["render", "cornell", "-t", "soft-roma", "--size", "32x32", "-o"])
+        .arg(&out)
+        .env("GLIMPSE_CACHE", "")
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    println!("{stdout}");
+    assert!(o.status.success());
+    let (parts, total) = parts(&stdout);
+    let sum: f64 = parts.iter().sum();
+    assert!((sum - total).abs() < 0.3, "{parts:?} sum to {sum}, total {total}");
+    assert!(stdout.contains("[bom ") && stdout.contains("generate "), "the prepare's stages are listed: {stdout}");
+    std::fs::remove_file(&out).ok();
+}
+
+/// Under a terminal (`script` gives the child a pty), a prepare longer than a second shows a
+/// spinner naming it.
+#[test]
+fn a_long_prepare_shows_a_spinner_on_a_terminal() {
+    if Command::new("script").arg("--version").output().is_err() {
+        println!("skipped: `script` (util-linux) is not installed");
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("glimpse-spinner-{}.png", std::process::id()));
+    // A voxel array of 60 × 60 directions: a few seconds of build.
+    let cmd = format!(
+        "{} render many-lights -t lights-voxarray --size 16x16 --set epsilon=false --set disk_cache=false --set resolution=64 --set directions=60 -o {}",
+        env!("CARGO_BIN_EXE_glimpse"),
+        out.display()
+    );
+    let o = Command::new("script").args(["-qec", &cmd, "/dev/null"]).env("GLIMPSE_CACHE", "").output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    let prepare_ms = parts(text.lines().find(|l| l.contains("= total")).expect("a summary line")).0[1];
+    println!("prepare {prepare_ms:.0} ms; spinner shown: {}", text.contains("preparing lights-voxarray"));
+    if prepare_ms > 1500.0 {
+        assert!(text.contains("preparing lights-voxarray"), "no spinner during a {prepare_ms} ms prepare: {text}");
+    }
+    std::fs::remove_file(&out).ok();
+}
