@@ -38,6 +38,9 @@ pub struct ViewerApp {
     pub techniques: Vec<String>,
     pub references: Vec<Option<String>>,
     pub scene_camera: Camera,
+    /// The scene as given on the command line and its overrides, for "save eval".
+    pub scene_spec: String,
+    pub overrides: glimpse_scene::SceneOverrides,
     requests: Sender<Request>,
     updates: Receiver<Update>,
     compare: Compare,
@@ -72,7 +75,14 @@ fn camera_arg(c: &Camera) -> String {
 }
 
 impl ViewerApp {
-    pub fn new(request: Request, scene_camera: Camera, requests: Sender<Request>, updates: Receiver<Update>) -> Self {
+    pub fn new(
+        request: Request,
+        scene_camera: Camera,
+        scene_spec: String,
+        overrides: glimpse_scene::SceneOverrides,
+        requests: Sender<Request>,
+        updates: Receiver<Update>,
+    ) -> Self {
         let registry = glimpse_eval::registry();
         let techniques: Vec<String> = registry.all().iter().map(|t| t.id.to_owned()).collect();
         let references = registry.all().iter().map(|t| t.reference.map(str::to_owned)).collect();
@@ -82,6 +92,8 @@ impl ViewerApp {
             techniques,
             references,
             scene_camera,
+            scene_spec,
+            overrides,
             requests,
             updates,
             compare,
@@ -183,6 +195,37 @@ impl ViewerApp {
         })
     }
 
+    /// "save eval": `glimpse eval` of the current technique at the current camera, time, size,
+    /// spp and parameters, in the background, into `glimpse-view-eval-<technique>-<n>/`.
+    fn save_eval(&mut self) {
+        let r = &self.request;
+        let out_dir = PathBuf::from(format!("glimpse-view-eval-{}-{}", r.technique, r.generation));
+        let cfg = glimpse_eval::experiment::EvalConfig {
+            scene_spec: self.scene_spec.clone(),
+            techniques: vec![r.technique.clone()],
+            approximate_only: false,
+            width: r.size.0,
+            height: r.size.1,
+            spp: r.spp,
+            ref_spp: 256,
+            seed: 0,
+            time: r.time,
+            params: r.set.clone(),
+            out_dir: out_dir.clone(),
+            cache: glimpse_eval::cache::Cache { dir: glimpse_eval::cache::Cache::default_dir() },
+            sweep: false,
+            exposure: self.exposure,
+            frames: r.max_passes.min(16),
+            overrides: glimpse_scene::SceneOverrides { camera: Some(r.camera.clone()), ..self.overrides.clone() },
+            time_reference: true,
+        };
+        eprintln!("saving an eval run to {} (in the background)", out_dir.display());
+        std::thread::spawn(move || match glimpse_eval::experiment::run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}")) {
+            Ok(_) => eprintln!("eval saved: {}", out_dir.join("report.html").display()),
+            Err(e) => eprintln!("error: save eval: {e:#}"),
+        });
+    }
+
     /// Writes the image as shown (linear EXR and tone-mapped PNG) to the current folder.
     fn save(&mut self) {
         let Some(img) = self.composed() else { return };
@@ -276,6 +319,9 @@ impl ViewerApp {
             ui.checkbox(&mut self.false_colour, "false colour (luminance)");
             if ui.button("save PNG + EXR").clicked() {
                 self.save();
+            }
+            if ui.button("save eval").clicked() {
+                self.save_eval();
             }
         });
         if self.animated {

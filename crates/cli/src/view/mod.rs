@@ -81,6 +81,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
     };
     // The window lives as long as the process: the render thread may keep a reference to it.
     let scene: &'static glimpse_scene::Scene = Box::leak(Box::new(scene));
+    let (scene_spec, overrides) = (a.scene.clone(), a.overrides.overrides());
     let script = a.frames.zip(a.screenshot.clone()).map(|(frames, screenshot)| app::Script {
         frames,
         screenshot,
@@ -103,7 +104,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
             let (upd_tx, upd_rx) = std::sync::mpsc::channel();
             let ctx = cc.egui_ctx.clone();
             worker::spawn(scene, req_rx, upd_tx, move || ctx.request_repaint());
-            let mut app = app::ViewerApp::new(request, camera, req_tx, upd_rx);
+            let mut app = app::ViewerApp::new(request, camera, scene_spec, overrides, req_tx, upd_rx);
             app.script = script;
             app.animated = scene.is_animated();
             Ok(Box::new(app))
