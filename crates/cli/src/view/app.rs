@@ -315,8 +315,8 @@ impl ViewerApp {
             ui.add(egui::Slider::new(&mut self.split, 0.0..=1.0).text("divider"));
         }
         ui.add(egui::Slider::new(&mut self.exposure, -8.0..=8.0).text("exposure (stops)"));
+        ui.checkbox(&mut self.false_colour, "false colour (luminance)");
         ui.horizontal(|ui| {
-            ui.checkbox(&mut self.false_colour, "false colour (luminance)");
             if ui.button("save PNG + EXR").clicked() {
                 self.save();
             }
@@ -481,8 +481,13 @@ impl eframe::App for ViewerApp {
         self.receive();
         let ctx = ui.ctx().clone();
         self.run_script(&ctx);
-        // The image first, from the window's top-left corner, so a screenshot crop finds it there.
-        egui::Panel::right("controls").min_size(280.0).show(ui, |ui| egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui)));
+        // The image first, from the window's top-left corner, so a screenshot crop finds it there;
+        // the panel has a fixed width (the window is the image's width plus it), so however wide
+        // its contents, the image is never squeezed.
+        egui::Panel::right("controls")
+            .exact_size(300.0)
+            .resizable(false)
+            .show(ui, |ui| egui::ScrollArea::vertical().show(ui, |ui| self.side_panel(ui)));
         egui::CentralPanel::no_frame().show(ui, |ui| {
             let key = self.images[0].as_ref().map(|(_, p)| *p).zip(Some(self.request.generation));
             let state = key.map(|(p, g)| (g, Which::Technique, p, self.compare, self.split, self.exposure));

@@ -90,7 +90,7 @@ pub fn run(a: ViewArgs) -> Result<()> {
     });
     let options = eframe::NativeOptions {
         viewport: eframe::egui::ViewportBuilder::default()
-            .with_inner_size([w as f32 + 300.0, (h as f32).max(520.0)])
+            .with_inner_size([w as f32 + 320.0, (h as f32).max(560.0)])
             .with_title("glimpse view"),
         ..Default::default()
     };
