@@ -36,6 +36,8 @@ pub struct EnvDvf {
     pub sh: Option<Sh9>,
     /// Forces every cell's label (tests of the estimator identities); `None`: the field's.
     pub force_label: Option<u8>,
+    /// The map's relative N_r-ray noise, when `unshadowed=auto` measured it.
+    pub map_noise: Option<f32>,
 }
 
 impl EnvDvf {
@@ -44,7 +46,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=sh|rays sides=both|front build_rays; profile=paper (sides=front)",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=auto|sh|rays sides=both|front build_rays; profile=paper (sides=front)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))
@@ -53,7 +55,14 @@ impl EnvDvf {
     }
 
     pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        Ok(Self { params: DvfParams::default().read(params)?, settings: *settings, dvf: None, sh: None, force_label: None })
+        Ok(Self {
+            params: DvfParams::default().read(params)?,
+            settings: *settings,
+            dvf: None,
+            sh: None,
+            force_label: None,
+            map_noise: None,
+        })
     }
 }
 
@@ -169,6 +178,16 @@ impl Technique for EnvDvf {
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, ctx.frame.scene.environment.as_ref()) {
             self.sh = Some(stats.time("sh", || project_environment(env)));
+            if self.params.auto.unshadowed {
+                // Once per map, as the SH: how noisy N_r rays of it are decides E_unshad's source.
+                let noise = stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays));
+                self.params.unshadowed = crate::choose_unshadowed(noise);
+                self.map_noise = Some(noise);
+            }
+        }
+        if let Some(noise) = self.map_noise {
+            stats.metrics.push(("map_noise".to_owned(), noise as f64));
+            stats.metrics.push(("unshadowed_rays".to_owned(), (self.params.unshadowed == Unshadowed::Rays) as u8 as f64));
         }
         let reuse = self.dvf.take().map(|d| d.masks);
         // The sample budget for this frame's size and triangle count (`points=auto` …).

@@ -43,3 +43,28 @@ fn the_automatic_budget_follows_the_frame() {
     let fixed = read(&["points=5000", "grid=12", "rounding=ceil"]).for_frame(1280 * 720, 2_000_000);
     assert_eq!((fixed.points, fixed.grid, fixed.rounding), (5000, 12, Rounding::Ceil));
 }
+
+/// `unshadowed=auto` keeps the paper's SH E_unshad for low-frequency light and takes it from the
+/// fragment's own rays where N_r rays of the map are noisy (a small bright sun): measured, not
+/// assumed, from the map's cosine-weighted second moment.
+#[test]
+fn unshadowed_follows_the_map_frequency() {
+    use glimpse_core::Vec3;
+    use glimpse_dvf::{SH_MAX_RELATIVE_NOISE, Unshadowed, choose_unshadowed, cosine_estimator_noise};
+    use glimpse_scene::Environment;
+    let constant = cosine_estimator_noise(&Environment::constant(Vec3::splat(0.8)), 128);
+    let overcast = cosine_estimator_noise(&Environment::procedural_sky(256, Vec3::new(0.3, 1.0, 0.2), 0.0), 128);
+    let sunny = cosine_estimator_noise(&Environment::procedural_sky(256, Vec3::new(0.3, 1.0, 0.2), 2000.0), 128);
+    println!(
+        "relative noise of 128 rays: constant {constant:.4}, sky without sun {overcast:.4}, sky with sun {sunny:.4} (threshold {SH_MAX_RELATIVE_NOISE})"
+    );
+    assert!(constant < 1e-3);
+    assert!(overcast < sunny);
+    assert_eq!(choose_unshadowed(constant), Unshadowed::Sh);
+    assert_eq!(choose_unshadowed(overcast), Unshadowed::Sh);
+    assert_eq!(choose_unshadowed(sunny), Unshadowed::Rays);
+    assert!(read(&[]).auto.unshadowed && !read(&["profile=paper"]).auto.unshadowed);
+    let fixed = read(&["unshadowed=sh"]);
+    assert!(!fixed.auto.unshadowed && fixed.unshadowed == Unshadowed::Sh);
+    assert_eq!(read(&["profile=paper", "unshadowed=rays"]).unshadowed, Unshadowed::Rays);
+}

@@ -76,6 +76,8 @@ pub struct Run {
     pub frames: u32,
     /// The reference's prepare + render time at this run's spp and seed, when timed.
     pub reference_ms: Option<f64>,
+    /// The render part of `reference_ms` (its prepare is the rest).
+    pub reference_render_ms: Option<f64>,
 }
 
 /// A technique not run because the scene lacks what it needs.
@@ -201,7 +203,10 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     };
 
     let mut references: BTreeMap<(String, u64), (Image, bool, String)> = BTreeMap::new();
-    let mut reference_times: BTreeMap<String, f64> = BTreeMap::new();
+    // The reference re-rendered at the runs' own spp and seed: its time, and its image (on the
+    // same samples as a single-frame technique's, so their difference is the approximation's
+    // alone, without the noise that the converged reference removes).
+    let mut reference_times: BTreeMap<String, (f64, f64, Image)> = BTreeMap::new();
     let mut runs = Vec::new();
     for id in &ids {
         let info = registry.get(id)?;
@@ -253,17 +258,21 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         let metrics = Metrics::compute(&r.image, reference)?;
         // Every technique of one eval shares spp, seed and parameters, so a reference is timed
         // once and its time serves each technique compared with it.
-        let reference_ms = match reference_times.get(&ref_id) {
-            _ if !cfg.time_reference || info.reference.is_none() => None,
-            Some(&ms) => Some(ms),
-            None => {
-                let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
-                let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
-                let ms = t.prepare.total_ms() + t.render.total_ms();
-                reference_times.insert(ref_id.clone(), ms);
-                Some(ms)
-            }
-        };
+        if cfg.time_reference && info.reference.is_some() && !reference_times.contains_key(&ref_id) {
+            let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
+            let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
+            reference_times.insert(ref_id.clone(), (t.prepare.total_ms() + t.render.total_ms(), t.render.total_ms(), t.image));
+        }
+        let timed_reference = reference_times.get(&ref_id).filter(|_| cfg.time_reference && info.reference.is_some());
+        let (reference_ms, reference_render_ms) = (timed_reference.map(|t| t.0), timed_reference.map(|t| t.1));
+        // Same samples (a single frame only: accumulated frames shade other samples).
+        let mut same_samples = Vec::new();
+        if let (Some((_, _, exact)), 1) = (timed_reference, cfg.frames.max(1)) {
+            let m = Metrics::compute(&r.image, exact)?;
+            same_samples.push(("rmse_same_samples".to_owned(), m.rmse));
+            same_samples.push(("flip_same_samples".to_owned(), m.flip));
+            same_samples.push(("reference_rmse_same_spp".to_owned(), Metrics::compute(exact, reference)?.rmse));
+        }
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());
         ms.insert("render".to_owned(), r.render.total_ms());
@@ -304,6 +313,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                 .map(|(k, v)| (k.to_owned(), v))
                 .chain(r.prepare.metrics.iter().chain(&r.render.metrics).cloned())
                 .chain(faults.to_pairs().map(|(k, v)| (k.to_owned(), v)))
+                .chain(same_samples)
                 .collect(),
             params: params.effective(),
             images,
@@ -311,6 +321,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             reference_cached: *reference_cached,
             frames: cfg.frames.max(1),
             reference_ms,
+            reference_render_ms,
         });
     }
 
