@@ -136,6 +136,7 @@ impl WaveCache {
         let areas: Vec<f32> = meshes.iter().map(|m| m.area()).collect();
         let total = |class: Class| -> f32 { (0..areas.len()).filter(|&i| inst_class[i] == class).map(|i| areas[i]).sum() };
         let (area_d, area_g) = (total(Class::Diffuse), total(Class::Glossy));
+        let plan = plan_points(scene, p, &inst_class, &areas);
         let mut rays = 0u64;
         for (i, wm) in meshes.iter().enumerate() {
             let class = inst_class[i];
@@ -151,12 +152,10 @@ impl WaveCache {
                 c.meshes.push(mc);
                 continue;
             }
-            let (budget, area_all) = if class == Class::Glossy { (p.glossy_points, area_g) } else { (p.diffuse_points, area_d) };
-            let m = ((budget as f64 * areas[i] as f64 / area_all.max(1e-30) as f64).round() as usize).max(p.min_points as usize);
+            let m = plan.points[i];
             let samples = points::poisson_points(wm, m, seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
             let r_max = points::r_max(areas[i], samples.len());
-            let map_res =
-                if class == Class::Glossy { p.map_resolution(scene.materials[material as usize].roughness).unwrap_or(4) } else { 0 };
+            let map_res = plan.map_res[i];
             let baked = bake::bake_points(&integ, samples, class, map_res, p, seed.wrapping_add(i as u64 * 7919), tick);
             rays += baked.rays;
             let positions: Vec<Vec3> = baked.samples.iter().map(|s| s.position).collect();
@@ -206,7 +205,8 @@ impl WaveCache {
             mc.map_res = map_res;
             c.meshes.push(mc);
         }
-        c.build_info = vec![brdf_ms, sw.ms(), rays as f64];
+        let _ = (area_d, area_g);
+        c.build_info = vec![brdf_ms, sw.ms(), rays as f64, plan.paths as f64, plan.scale];
         c
     }
 
@@ -221,10 +221,9 @@ impl WaveCache {
                 p.classify(m) == Class::Glossy && scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == *mi)
             })
             .count() as u64;
-        let instances = scene.instances.len() as u64;
-        glossy_materials * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64
-            + (p.diffuse_points + p.glossy_points) as u64
-            + instances * p.min_points as u64
+        let (inst_class, areas) = classes_and_areas(frame, p);
+        let points: usize = plan_points(scene, p, &inst_class, &areas).points.iter().sum();
+        glossy_materials * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 + points as u64
     }
 
     // ----------------------------------------------------------------------------------------
@@ -497,6 +496,75 @@ impl Fnv {
             self.bytes(&x.to_bits().to_le_bytes());
         }
     }
+}
+
+/// Each instance's class and world-space area.
+pub fn classes_and_areas(frame: &SceneFrame, p: &WavecacheParams) -> (Vec<Class>, Vec<f32>) {
+    let scene = frame.scene;
+    let classes: Vec<Class> = scene.materials.iter().map(|m| p.classify(m)).collect();
+    let inst_class = scene.instances.iter().map(|i| classes[scene.meshes[i.mesh as usize].material as usize]).collect();
+    let areas = (0..scene.instances.len()).map(|i| bake::world_mesh(frame, i).area()).collect();
+    (inst_class, areas)
+}
+
+/// How many cache points each instance gets, and the paths the lighting precomputation traces
+/// for them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PointPlan {
+    /// Per instance (0 for mirrors and zero-area meshes).
+    pub points: Vec<usize>,
+    /// Per instance: the glossy radiance-map resolution (0 for diffuse).
+    pub map_res: Vec<u32>,
+    /// Σ points × paths per point (irradiance samples, or texels × samples per texel).
+    pub paths: u64,
+    /// The factor the point budgets were multiplied by to fit `path_budget` (1: they fit).
+    pub scale: f64,
+}
+
+/// Points per instance: the class's budget shared by area (at least `min_points` per mesh), all
+/// scaled down together when the paths they need exceed `p.path_budget` (0: no limit). Why a
+/// budget: the point counts are per scene, so a scene with much glossy area (each glossy point
+/// traces texels × `texel_samples` paths, 49K at roughness 0.12) cost minutes (`glints` 206M
+/// paths, 92 s; `textured-glossy` 463 s); the budget keeps any scene near the tuned scenes' cost
+/// (`glossy`: 20.9 s) and leaves those unchanged.
+pub fn plan_points(scene: &glimpse_scene::Scene, p: &WavecacheParams, inst_class: &[Class], areas: &[f32]) -> PointPlan {
+    let total = |class: Class| -> f64 { (0..areas.len()).filter(|&i| inst_class[i] == class).map(|i| areas[i] as f64).sum() };
+    let (area_d, area_g) = (total(Class::Diffuse), total(Class::Glossy));
+    let map_res: Vec<u32> = (0..areas.len())
+        .map(|i| {
+            let material = scene.meshes[scene.instances[i].mesh as usize].material as usize;
+            if inst_class[i] == Class::Glossy { p.map_resolution(scene.materials[material].roughness).unwrap_or(4) } else { 0 }
+        })
+        .collect();
+    let per_point = |i: usize| -> u64 {
+        match inst_class[i] {
+            Class::Glossy => crate::halfcube::HalfCube::new(map_res[i]).texels() as u64 * p.texel_samples as u64,
+            _ => p.irradiance_samples as u64,
+        }
+    };
+    let plan = |scale: f64| -> PointPlan {
+        let points: Vec<usize> = (0..areas.len())
+            .map(|i| {
+                let (budget, area_all) = match inst_class[i] {
+                    Class::Mirror => return 0,
+                    Class::Glossy => (p.glossy_points, area_g),
+                    Class::Diffuse => (p.diffuse_points, area_d),
+                };
+                if areas[i] <= 0.0 {
+                    return 0;
+                }
+                ((budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round() as usize).max(p.min_points as usize)
+            })
+            .collect();
+        let paths = points.iter().enumerate().map(|(i, &m)| m as u64 * per_point(i)).sum();
+        PointPlan { points, map_res: map_res.clone(), paths, scale }
+    };
+    let full = plan(1.0);
+    if p.path_budget == 0 || full.paths <= p.path_budget {
+        return full;
+    }
+    // Scale both budgets by the ratio (the per-mesh minimum makes the result a little over it).
+    plan(p.path_budget as f64 / full.paths as f64)
 }
 
 /// The disk-cache key: the scene's geometry (world transforms, positions, normals, indices),

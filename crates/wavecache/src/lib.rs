@@ -66,6 +66,10 @@ pub enum WoFrame {
     Reflect,
 }
 
+/// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
+/// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
+pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
+
 /// Every parameter of the technique (`--set key=value`). Paper values in the comments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WavecacheParams {
@@ -94,6 +98,9 @@ pub struct WavecacheParams {
     pub glossy_points: u32,
     /// Fewest points per mesh.
     pub min_points: u32,
+    /// Most paths the lighting precomputation traces (`budget`; 0: no limit, the paper's
+    /// profile): both point budgets shrink together to fit ([`cache::plan_points`]).
+    pub path_budget: u64,
     /// Scattering vertices of the precompute paths, counted as `pt` counts them (pt's default 8).
     pub max_depth: u32,
     /// Sparsification strength for the irradiance (diffuse) points (0 = off).
@@ -142,6 +149,7 @@ impl Default for WavecacheParams {
             diffuse_points: 20000,
             glossy_points: 4000,
             min_points: 16,
+            path_budget: DEFAULT_PATH_BUDGET,
             max_depth: 8,
             sparsify: 1.0,
             min_energy: 0.0,
@@ -164,7 +172,7 @@ impl Default for WavecacheParams {
 impl WavecacheParams {
     /// The paper's settings where it gives them (Sec. 4, 6, Table 2).
     pub fn paper() -> Self {
-        Self { brdf_grid_u1: 172, brdf_grid_u2: 1080, brdf_res: 128, map_scale: 1, texel_samples: 128, ..Self::default() }
+        Self { brdf_grid_u1: 172, brdf_grid_u2: 1080, brdf_res: 128, map_scale: 1, texel_samples: 128, path_budget: 0, ..Self::default() }
     }
 
     /// Reads every key (defaults above; `profile=paper` starts from [`WavecacheParams::paper`]).
@@ -193,6 +201,7 @@ impl WavecacheParams {
             diffuse_points: params.u32("diffuse_points", base.diffuse_points, 1, 50_000_000)?,
             glossy_points: params.u32("glossy_points", base.glossy_points, 1, 50_000_000)?,
             min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
+            path_budget: params.i64("budget", base.path_budget as i64, 0, 1 << 40)? as u64,
             max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
             sparsify: params.f32("sparsify", base.sparsify, 0.0, 1.0)?,
             min_energy: params.f32("min_energy", base.min_energy, 0.0, f32::INFINITY)?,

@@ -113,6 +113,18 @@ impl Wavecache {
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
         stats.rays = c.build_info.get(2).copied().unwrap_or(0.0) as u64;
+        if let (Some(&paths), Some(&scale)) = (c.build_info.get(3), c.build_info.get(4)) {
+            stats.metrics.push(("precompute_paths".to_owned(), paths));
+            stats.metrics.push(("point_budget_scale".to_owned(), scale));
+            if scale < 1.0 {
+                // A parameter the scene made us choose: said once, with how to undo it.
+                eprintln!(
+                    "wavecache: cache points scaled to {scale:.2}× of diffuse_points/glossy_points to fit budget={} paths ({:.0}M planned; budget=0 lifts it)",
+                    self.params.path_budget,
+                    paths / 1e6
+                );
+            }
+        }
         if let Some(path) = &path {
             // A failed write only costs the next run a recomputation.
             if let Err(e) = c.save(path) {

@@ -1,0 +1,42 @@
+//! Alg. 1 + Alg. 2 build time and peak memory of one scene's array (no disk cache).
+//!
+//! cargo run --release -p glimpse-voxarray --example build_time -- SCENE [resolution=128]
+//!     [directions=90] [compress=true] …
+
+use glimpse_render::Params;
+use glimpse_voxarray::{VoxArray, VoxArrayParams};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let spec = args.first().expect("usage: build_time SCENE [key=value …]");
+    let params = Params::parse(&args[1..]).expect("arguments are key=value");
+    let p = VoxArrayParams::default().read(&params).expect("valid parameters");
+    let scene = glimpse_scene::load(spec).expect("scene loads");
+    let triangles = scene.at(0.0).world_triangles();
+    let sw = std::time::Instant::now();
+    let mut a = VoxArray::from_triangles(&triangles, &VoxArrayParams { compress: None, ..p });
+    let voxelize = sw.elapsed().as_secs_f64();
+    let sw = std::time::Instant::now();
+    if let Some(c) = &p.compress {
+        match &mut a {
+            VoxArray::R32(a) => a.compress(c),
+            VoxArray::R64(a) => a.compress(c),
+            VoxArray::R128(a) => a.compress(c),
+        };
+    }
+    let compress = sw.elapsed().as_secs_f64();
+    let peak = std::fs::read_to_string("/proc/self/status").ok().and_then(|s| {
+        s.lines()
+            .find(|l| l.starts_with("VmHWM:"))
+            .map(|l| l.split_whitespace().nth(1).unwrap_or("0").parse::<f64>().unwrap_or(0.0) / 1024.0)
+    });
+    println!(
+        "{spec}: {} triangles, {}³, {}² directions: voxelize {voxelize:.2} s, compress {compress:.2} s, total {:.2} s; {:.0} MiB stored; peak RSS {} MiB",
+        triangles.len(),
+        p.resolution,
+        p.directions,
+        voxelize + compress,
+        a.memory_bytes() as f64 / 1048576.0,
+        peak.map_or("?".into(), |m| format!("{m:.0}"))
+    );
+}
