@@ -12,6 +12,7 @@
 //! once. The arithmetic of pass 1 is the scalar code applied lane by lane, so the answers are
 //! bit-identical to the scalar query (`tests/batch.rs` checks every ray on several scenes).
 
+use crate::extent8;
 use crate::query::{self, Extent};
 use crate::row::Row;
 use crate::{Array, Rows};
@@ -58,11 +59,22 @@ impl<R: Row> Array<R> {
     /// world-space segment), then the rows fetched together, then `hits` per lane with an extent.
     #[inline]
     fn occluded_lanes<T>(&self, queries: &[T], out: &mut [bool], segment: impl Fn(&T) -> (Vec3, Vec3), hits: impl Fn(R, &Extent) -> bool) {
+        let simd = extent8::avx2_available();
         for (queries, out) in queries.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let mut extents = [None; LANES];
-            for (x, q) in extents.iter_mut().zip(queries) {
-                let (a, b) = segment(q);
-                *x = query::extent(&self.grid, &self.dirs, a, b, self.bias_start_cells, self.bias_end_cells);
+            if simd && queries.len() == LANES {
+                let (mut starts, mut ends) = ([Vec3::ZERO; LANES], [Vec3::ZERO; LANES]);
+                for ((a, b), q) in starts.iter_mut().zip(&mut ends).zip(queries) {
+                    (*a, *b) = segment(q);
+                }
+                let (g, d, bs, be) = (&self.grid, &self.dirs, self.bias_start_cells, self.bias_end_cells);
+                extents = extent8::extents_simd(g, d, &starts, &ends, bs, be)
+                    .unwrap_or_else(|| extent8::extents_scalar(g, d, &starts, &ends, bs, be));
+            } else {
+                for (x, q) in extents.iter_mut().zip(queries) {
+                    let (a, b) = segment(q);
+                    *x = query::extent(&self.grid, &self.dirs, a, b, self.bias_start_cells, self.bias_end_cells);
+                }
             }
             let rows = self.fetch_rows(&extents[..queries.len()]);
             for ((o, x), row) in out.iter_mut().zip(&extents).zip(rows) {
