@@ -1,4 +1,4 @@
-//! [`query::extent`](crate::query::extent) for eight segments at once with AVX2 (issue #14):
+//! [`crate::query::extent`] for eight segments at once with AVX2 (issue #14):
 //! pass 1 of the batched query ([`crate::batch`]) in structure-of-arrays form.
 //!
 //! Every lane performs exactly the scalar code's float operations in the same order — the
