@@ -20,6 +20,7 @@ pub mod compress;
 pub mod directions;
 pub mod disk_cache;
 pub mod dynamic;
+pub mod extent8;
 pub mod query;
 pub mod row;
 pub mod technique;
