@@ -13,6 +13,18 @@ fn main() {
     let p = VoxArrayParams::default().read(&params).expect("valid parameters");
     let scene = glimpse_scene::load(spec).expect("scene loads");
     let triangles = scene.at(0.0).world_triangles();
+    if p.cluster_cells > 0.0 {
+        let grid = glimpse_voxarray::voxelize::Grid::around(&triangles, p.resolution);
+        let sw = std::time::Instant::now();
+        let c = glimpse_voxarray::voxelize::cluster_vertices(&triangles, &grid, p.cluster_cells);
+        println!(
+            "clustering at {} cells: {} -> {} triangles in {:.2} s",
+            p.cluster_cells,
+            triangles.len(),
+            c.len(),
+            sw.elapsed().as_secs_f64()
+        );
+    }
     let sw = std::time::Instant::now();
     let mut a = VoxArray::from_triangles(&triangles, &VoxArrayParams { compress: None, ..p });
     let voxelize = sw.elapsed().as_secs_f64();

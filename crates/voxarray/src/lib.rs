@@ -65,6 +65,9 @@ pub struct VoxArrayParams {
     pub skip_start_run: bool,
     /// Alg. 2 on (`None`: the uncompressed array).
     pub compress: Option<CompressParams>,
+    /// Vertices clustered to cubes of this many cells before Alg. 1 (`cluster`; 0 = off, the
+    /// paper; see [`voxelize::cluster_vertices`]).
+    pub cluster_cells: f32,
 }
 
 impl Default for VoxArrayParams {
@@ -77,9 +80,13 @@ impl Default for VoxArrayParams {
             normal_offset_cells: 1.5,
             skip_start_run: false,
             compress: Some(CompressParams::default()),
+            cluster_cells: DEFAULT_CLUSTER_CELLS,
         }
     }
 }
+
+/// The default `cluster`: a quarter of a cell.
+pub const DEFAULT_CLUSTER_CELLS: f32 = 0.25;
 
 impl VoxArrayParams {
     /// The uncompressed variant of the defaults.
@@ -112,6 +119,7 @@ impl VoxArrayParams {
             normal_offset_cells: params.f32("normal_offset", self.normal_offset_cells, 0.0, 64.0)?,
             skip_start_run: params.bool("skip_start_run", self.skip_start_run)?,
             compress: compress.then_some(CompressParams { dictionary_rows, steps, seed: c.seed }),
+            cluster_cells: params.f32("cluster", self.cluster_cells, 0.0, 4.0)?,
         })
     }
 }
@@ -148,6 +156,13 @@ impl<R: Row> Array<R> {
     pub fn build_in(triangles: &[[Vec3; 3]], grid: Grid, p: &VoxArrayParams) -> Self {
         let dirs = Directions::new(p.directions);
         let sw = std::time::Instant::now();
+        let clustered;
+        let triangles = if p.cluster_cells > 0.0 {
+            clustered = voxelize::cluster_vertices(triangles, &grid, p.cluster_cells);
+            &clustered[..]
+        } else {
+            triangles
+        };
         let plain = voxelize::build_array::<R>(triangles, &grid, &dirs);
         let build_ms = sw.elapsed().as_secs_f64() * 1e3;
         let mut a = Array {
