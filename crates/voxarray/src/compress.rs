@@ -102,71 +102,191 @@ pub fn index_bits(n: usize) -> u32 {
 /// and the report.
 pub fn compress<R: Row>(rows: &[R], p: &CompressParams) -> (Compressed<R>, Vec<u8>, CompressionReport) {
     let sw = std::time::Instant::now();
-    // Line 1: histogram.
-    let mut distinct = histogram(rows);
+    // Lines 1–2: histogram, dictionary.
+    let distinct = histogram(rows);
     let distinct_rows = distinct.len() as u64;
-    // Line 2: the n most frequent rows, most frequent first (ties by row value).
+    let dictionary = choose_dictionary(distinct, p);
+    // Lines 3–15: `Find` after Simplify(·, 2^c), then the random fallback.
+    let finder = Finder::new(&dictionary, p);
+    let mut assign = vec![0u32; rows.len()];
+    let mut step = vec![p.steps as u8; rows.len()];
+    assign.par_iter_mut().zip(step.par_iter_mut()).zip(rows.par_iter()).enumerate().for_each(|(i, ((a, st), &r))| {
+        let (index, s) = finder.find(r).unwrap_or_else(|| (finder.random(i), p.steps as u8));
+        (*a, *st) = (index, s);
+    });
+    let mut mapped_at_step = vec![0u64; p.steps as usize];
+    let mut random = 0u64;
+    for &s in &step {
+        match mapped_at_step.get_mut(s as usize) {
+            Some(m) => *m += 1,
+            None => random += 1,
+        }
+    }
+    let bits = index_bits(dictionary.len());
+    let indices = pack(&assign, bits);
+    let report = CompressionReport {
+        rows: rows.len() as u64,
+        distinct_rows,
+        dictionary_rows: dictionary.len() as u64,
+        mapped_at_step,
+        random,
+        ms: sw.elapsed().as_secs_f64() * 1e3,
+    };
+    (Compressed { dictionary, index_bits: bits, indices, rows: rows.len() }, step, report)
+}
+
+/// Alg. 2 on an array produced slab by slab, without ever holding it whole: `fill(k, slab)`
+/// writes rows `k·slab_rows ..` of the array into `slab` (this is Alg. 1 for one θ). Each slab
+/// is kept as a small table of its distinct rows and a 32-bit id per row, so the peak memory
+/// is a quarter of the plain rows (128-bit rows) plus the packed result, instead of the plain
+/// array and the compression's working arrays together (3 GB at 128³ × 90²). The result is
+/// exactly [`compress`]'s on the whole array (`tests`).
+pub fn compress_slabs<R: Row>(
+    slabs: usize,
+    slab_rows: usize,
+    fill: impl Fn(usize, &mut [R]) + Sync,
+    p: &CompressParams,
+) -> (Compressed<R>, CompressionReport) {
+    let sw = std::time::Instant::now();
+    struct Slab<R> {
+        /// Distinct rows in order of first appearance, with their counts.
+        distinct: Vec<(R, u64)>,
+        /// Per row, its index into `distinct`.
+        ids: Vec<u32>,
+    }
+    let parts: Vec<Slab<R>> = (0..slabs)
+        .into_par_iter()
+        .map_init(
+            || vec![R::ZERO; slab_rows],
+            |buf, k| {
+                buf.fill(R::ZERO);
+                fill(k, buf);
+                let mut local: FxHashMap<R, u32> = FxHashMap::default();
+                let mut distinct: Vec<(R, u64)> = Vec::new();
+                let ids = buf
+                    .iter()
+                    .map(|&r| {
+                        let id = *local.entry(r).or_insert_with(|| {
+                            distinct.push((r, 0));
+                            (distinct.len() - 1) as u32
+                        });
+                        distinct[id as usize].1 += 1;
+                        id
+                    })
+                    .collect();
+                Slab { distinct, ids }
+            },
+        )
+        .collect();
+    // Lines 1–2 over the slabs' counts.
+    let mut counts: FxHashMap<R, u64> = FxHashMap::default();
+    for part in &parts {
+        for &(r, c) in &part.distinct {
+            *counts.entry(r).or_insert(0) += c;
+        }
+    }
+    let distinct_rows = counts.len() as u64;
+    let dictionary = choose_dictionary(counts.into_iter().collect(), p);
+    let finder = Finder::new(&dictionary, p);
+    let bits = index_bits(dictionary.len());
+    let rows = slabs * slab_rows;
+    // Lines 3–15 once per distinct row of each slab, then per row through its id; each slab
+    // packs into its own words (a slab's bit range starts on a word: slab_rows·bits ≡ 0 mod 64
+    // for the N² ≥ 1024 rows of a voxelization).
+    assert!((slab_rows * bits as usize).is_multiple_of(64), "slab rows {slab_rows} × {bits} bits must fill whole words");
+    let words_per_slab = slab_rows * bits as usize / 64;
+    let mut indices = crate::voxelize::alloc_rows::<u64>(slabs * words_per_slab + 2);
+    let tallies: Vec<(Vec<u64>, u64)> = indices[..slabs * words_per_slab]
+        .par_chunks_mut(words_per_slab)
+        .zip(parts.par_iter())
+        .enumerate()
+        .map(|(k, (words, part))| {
+            let found: Vec<Option<(u32, u8)>> = part.distinct.iter().map(|&(r, _)| finder.find(r)).collect();
+            let mut mapped_at_step = vec![0u64; p.steps as usize];
+            let mut random = 0u64;
+            for (&(_, c), f) in part.distinct.iter().zip(&found) {
+                match f {
+                    Some((_, s)) => mapped_at_step[*s as usize] += c,
+                    None => random += c,
+                }
+            }
+            let assign: Vec<u32> = part
+                .ids
+                .iter()
+                .enumerate()
+                .map(|(j, &id)| found[id as usize].map_or_else(|| finder.random(k * slab_rows + j), |f| f.0))
+                .collect();
+            words.copy_from_slice(&pack(&assign, bits)[..words_per_slab]);
+            (mapped_at_step, random)
+        })
+        .collect();
+    let mut mapped_at_step = vec![0u64; p.steps as usize];
+    let mut random = 0;
+    for (m, r) in tallies {
+        mapped_at_step.iter_mut().zip(m).for_each(|(a, b)| *a += b);
+        random += r;
+    }
+    let report = CompressionReport {
+        rows: rows as u64,
+        distinct_rows,
+        dictionary_rows: dictionary.len() as u64,
+        mapped_at_step,
+        random,
+        ms: sw.elapsed().as_secs_f64() * 1e3,
+    };
+    (Compressed { dictionary, index_bits: bits, indices, rows }, report)
+}
+
+/// Line 2: the `dictionary_rows` most frequent rows, most frequent first (ties by row value).
+fn choose_dictionary<R: Row>(mut distinct: Vec<(R, u64)>, p: &CompressParams) -> Vec<R> {
     distinct.par_sort_unstable_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
     distinct.truncate((p.dictionary_rows as usize).max(1));
-    let dictionary: Vec<R> = if distinct.is_empty() { vec![R::ZERO] } else { distinct.iter().map(|d| d.0).collect() };
-    drop(distinct);
+    if distinct.is_empty() { vec![R::ZERO] } else { distinct.iter().map(|d| d.0).collect() }
+}
 
-    // Lines 3–12: exact matching after Simplify(·, 2^c).
-    const UNMAPPED: u32 = u32::MAX;
-    let mut assign = vec![UNMAPPED; rows.len()];
-    let mut step = vec![p.steps as u8; rows.len()];
-    let mut mapped_at_step = Vec::new();
-    for c in 0..p.steps {
-        let f = 1u32 << c;
-        if f > R::BITS {
-            mapped_at_step.push(0);
-            continue;
-        }
-        let keep: R = group_starts(f);
-        // Simplified row → the lowest (most frequent) dictionary index with it.
-        let mut keyed: FxHashMap<R, u32> = FxHashMap::default();
-        keyed.reserve(dictionary.len());
-        for (k, &d) in dictionary.iter().enumerate() {
-            keyed.entry(simplify_with(d, f, keep)).or_insert(k as u32);
-        }
-        let mapped: u64 = assign
-            .par_iter_mut()
-            .zip(step.par_iter_mut())
-            .zip(rows.par_iter())
-            .map(|((a, st), &r)| {
-                if *a != UNMAPPED {
-                    return 0;
+/// Lines 3–15's lookups: per step c, simplified row → the lowest (most frequent) dictionary
+/// index with it; and the seeded random fallback.
+struct Finder<R: Row> {
+    steps: Vec<(u32, R, FxHashMap<R, u32>)>,
+    dictionary_len: u64,
+    seed: u64,
+}
+
+impl<R: Row> Finder<R> {
+    fn new(dictionary: &[R], p: &CompressParams) -> Self {
+        let steps = (0..p.steps)
+            .map(|c| 1u32 << c)
+            .filter(|&f| f <= R::BITS)
+            .map(|f| {
+                let keep: R = group_starts(f);
+                let mut keyed: FxHashMap<R, u32> = FxHashMap::default();
+                keyed.reserve(dictionary.len());
+                for (k, &d) in dictionary.iter().enumerate() {
+                    keyed.entry(simplify_with(d, f, keep)).or_insert(k as u32);
                 }
-                match keyed.get(&simplify_with(r, f, keep)) {
-                    Some(&k) => {
-                        *a = k;
-                        *st = c as u8;
-                        1
-                    }
-                    None => 0,
-                }
+                (f, keep, keyed)
             })
-            .sum();
-        mapped_at_step.push(mapped);
+            .collect();
+        Self { steps, dictionary_len: dictionary.len() as u64, seed: p.seed }
     }
-    // Lines 13–15: random fallback.
-    let n = dictionary.len() as u64;
-    let random: u64 = assign
-        .par_iter_mut()
-        .enumerate()
-        .map(|(i, a)| {
-            if *a != UNMAPPED {
-                return 0;
-            }
-            *a = (splitmix64(p.seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)) % n) as u32;
-            1
-        })
-        .sum();
 
-    // Pack.
-    let bits = index_bits(dictionary.len());
-    let mut indices = crate::voxelize::alloc_rows::<u64>((rows.len() * bits as usize).div_ceil(64) + 2);
-    // Each 64-bit word gathers the indices that touch it; parallel over words, no races.
+    /// (dictionary index, step) of the first step whose simplified row is in the dictionary.
+    #[inline]
+    fn find(&self, r: R) -> Option<(u32, u8)> {
+        self.steps.iter().enumerate().find_map(|(c, (f, keep, keyed))| keyed.get(&simplify_with(r, *f, *keep)).map(|&k| (k, c as u8)))
+    }
+
+    /// The fallback's dictionary row for row `i` (a hash of `i` and the seed).
+    #[inline]
+    fn random(&self, i: usize) -> u32 {
+        (splitmix64(self.seed ^ (i as u64).wrapping_mul(0x9e37_79b9_7f4a_7c15)) % self.dictionary_len) as u32
+    }
+}
+
+/// Indices packed LSB-first with `bits` bits each, plus two spare words. Each 64-bit word
+/// gathers the indices that touch it; parallel over words, no races.
+fn pack(assign: &[u32], bits: u32) -> Vec<u64> {
+    let mut indices = crate::voxelize::alloc_rows::<u64>((assign.len() * bits as usize).div_ceil(64) + 2);
     indices.par_iter_mut().enumerate().for_each(|(w, word)| {
         let lo_bit = w * 64;
         let first = lo_bit / bits as usize;
@@ -184,15 +304,7 @@ pub fn compress<R: Row>(rows: &[R], p: &CompressParams) -> (Compressed<R>, Vec<u
             }
         }
     });
-    let report = CompressionReport {
-        rows: rows.len() as u64,
-        distinct_rows,
-        dictionary_rows: dictionary.len() as u64,
-        mapped_at_step,
-        random,
-        ms: sw.elapsed().as_secs_f64() * 1e3,
-    };
-    (Compressed { dictionary, index_bits: bits, indices, rows: rows.len() }, step, report)
+    indices
 }
 
 /// Every distinct row with its count (in no particular order), counted in per-task hash maps
@@ -276,6 +388,37 @@ mod tests {
             }
         }
         (dictionary, assign)
+    }
+
+    /// The slab-streamed compression gives exactly the whole-array compression: dictionary,
+    /// every index, and the report's counts.
+    #[test]
+    fn streamed_slabs_equal_the_whole_array() {
+        let pool: Vec<u128> =
+            (0..500u64).map(|k| (splitmix64(k) & splitmix64(k + 999)) as u128 | ((splitmix64(k + 7) as u128) << 64)).collect();
+        let (slabs, slab_rows) = (12, 1024);
+        let row = |i: usize| if splitmix64(i as u64).is_multiple_of(4) { 0 } else { pool[(splitmix64(i as u64 ^ 77) % 500) as usize] };
+        let whole: Vec<u128> = (0..slabs * slab_rows).map(row).collect();
+        for dictionary_rows in [16, 200, 1000] {
+            let p = CompressParams { dictionary_rows, steps: 4, seed: 9 };
+            let (a, _, ra) = compress(&whole, &p);
+            let fill = |k: usize, slab: &mut [u128]| {
+                for (j, r) in slab.iter_mut().enumerate() {
+                    *r = row(k * slab_rows + j);
+                }
+            };
+            let (b, rb) = compress_slabs(slabs, slab_rows, fill, &p);
+            assert_eq!(a.dictionary, b.dictionary);
+            let differ = (0..whole.len()).filter(|&i| a.index(i) != b.index(i)).count();
+            println!(
+                "dictionary {dictionary_rows}: {} rows, {differ} indices differ; steps {:?}, random {}",
+                whole.len(),
+                rb.mapped_at_step,
+                rb.random
+            );
+            assert_eq!(differ, 0);
+            assert_eq!((ra.distinct_rows, ra.mapped_at_step, ra.random), (rb.distinct_rows, rb.mapped_at_step, rb.random));
+        }
     }
 
     #[test]

@@ -163,23 +163,28 @@ impl<R: Row> Array<R> {
         } else {
             triangles
         };
-        let plain = voxelize::build_array::<R>(triangles, &grid, &dirs);
+        // Compressed: Alg. 1 streamed θ-slab by θ-slab into Alg. 2, never holding the plain
+        // array (2 GB at the defaults; see `compress::compress_slabs`).
+        let (rows, compression) = match &p.compress {
+            Some(c) => {
+                let fill = |i: usize, slab: &mut [R]| voxelize::voxelize_slab(triangles, &grid, &dirs, i, slab, &mut Vec::new());
+                let (compressed, report) = compress::compress_slabs(dirs.n as usize, voxelize::slab_rows::<R>(&dirs), fill, c);
+                (Rows::Compressed(compressed), Some(report))
+            }
+            None => (Rows::Plain(voxelize::build_array::<R>(triangles, &grid, &dirs)), None),
+        };
         let build_ms = sw.elapsed().as_secs_f64() * 1e3;
-        let mut a = Array {
+        Array {
             grid,
             dirs,
-            rows: Rows::Plain(plain),
+            rows,
             bias_start_cells: p.bias_start_cells,
             bias_end_cells: p.bias_end_cells,
             normal_offset_cells: p.normal_offset_cells,
             skip_start_run: p.skip_start_run,
             build_ms,
-            compression: None,
-        };
-        if let Some(c) = &p.compress {
-            a.compress(c);
+            compression,
         }
-        a
     }
 
     /// Replaces plain rows by their Alg. 2 compression (no-op if already compressed).

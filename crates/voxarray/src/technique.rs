@@ -173,15 +173,9 @@ impl Technique for LightsVoxArray {
             let a = match loaded {
                 Some(a) => a,
                 None => {
-                    let p = VoxArrayParams { compress: None, ..self.params };
-                    let mut a = stats.time("alg1 voxelize", || VoxArray::from_triangles(&triangles, &p));
-                    if let Some(c) = self.params.compress {
-                        stats.time("alg2 compress", || match &mut a {
-                            VoxArray::R32(x) => x.compress(&c),
-                            VoxArray::R64(x) => x.compress(&c),
-                            VoxArray::R128(x) => x.compress(&c),
-                        });
-                    }
+                    // Alg. 1 streamed into Alg. 2 (one stage: the slabs are voxelized as they
+                    // are compressed, never held whole).
+                    let a = stats.time("alg1+2 voxelize and compress", || VoxArray::from_triangles(&triangles, &self.params));
                     if let Some(path) = &path
                         && let Err(e) = stats.time("store cached array", || disk_cache::store(path, &a))
                     {

@@ -257,24 +257,40 @@ pub fn cluster_vertices(triangles: &[[Vec3; 3]], grid: &Grid, quantum_cells: f32
 
 /// Alg. 1: every voxelization of the `n × n` array, rows flat at `((i·n + j)·N + y)·N + x`.
 pub fn build_array<R: Row>(triangles: &[[Vec3; 3]], grid: &Grid, dirs: &Directions) -> Vec<R> {
-    let nres = R::BITS as usize;
-    let per_vox = nres * nres;
-    let n = dirs.n as usize;
-    let half = n / 2;
-    let mut rows = alloc_rows::<R>(n * n * per_vox);
-    rows.par_chunks_mut(n * per_vox).enumerate().for_each(|(i, slab)| {
-        let (first, second) = slab.split_at_mut(half * per_vox);
-        let mut cells = Vec::with_capacity(triangles.len());
-        for j in 0..half {
-            let r = dirs.rotation(i as u32, j as u32);
-            cells.clear();
-            cells.extend(triangles.iter().map(|t| t.map(|p| grid.to_cells(&r, p))));
-            let vox = &mut first[j * per_vox..(j + 1) * per_vox];
-            sp_voxelization(&cells, vox);
-            transpose(vox, &mut second[j * per_vox..(j + 1) * per_vox]);
-        }
-    });
+    let per_slab = slab_rows::<R>(dirs);
+    let mut rows = alloc_rows::<R>(dirs.n as usize * per_slab);
+    rows.par_chunks_mut(per_slab)
+        .enumerate()
+        .for_each_init(Vec::new, |cells, (i, slab)| voxelize_slab(triangles, grid, dirs, i, slab, cells));
     rows
+}
+
+/// Rows of one θ-slab (the `n` voxelizations of one θ_i).
+pub fn slab_rows<R: Row>(dirs: &Directions) -> usize {
+    dirs.n as usize * (R::BITS as usize).pow(2)
+}
+
+/// The voxelizations (θ_i, φ_j) for every j into `slab` (zeroed, [`slab_rows`] long): the first
+/// half rasterized, the second half their 90° transpositions. `cells` is scratch space.
+pub fn voxelize_slab<R: Row>(
+    triangles: &[[Vec3; 3]],
+    grid: &Grid,
+    dirs: &Directions,
+    i: usize,
+    slab: &mut [R],
+    cells: &mut Vec<[Vec3; 3]>,
+) {
+    let per_vox = (R::BITS as usize).pow(2);
+    let half = dirs.n as usize / 2;
+    let (first, second) = slab.split_at_mut(half * per_vox);
+    for j in 0..half {
+        let r = dirs.rotation(i as u32, j as u32);
+        cells.clear();
+        cells.extend(triangles.iter().map(|t| t.map(|p| grid.to_cells(&r, p))));
+        let vox = &mut first[j * per_vox..(j + 1) * per_vox];
+        sp_voxelization(cells, vox);
+        transpose(vox, &mut second[j * per_vox..(j + 1) * per_vox]);
+    }
 }
 
 /// A zeroed row array, backed by transparent huge pages where the OS allows (Linux madvise):
