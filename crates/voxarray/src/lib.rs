@@ -95,7 +95,7 @@ impl VoxArrayParams {
     }
 
     /// Reads `resolution`, `directions`, `bias`, `bias_light`, `normal_offset`,
-    /// `skip_start_run`, `compress`, `dictionary`,
+    /// `skip_start_run`, `compress`, `dictionary`, `cluster`,
     /// `steps`, with `self` as the defaults.
     pub fn read(self, params: &Params) -> Result<Self, ParamError> {
         let invalid = |key: &str, v: u32, m: &str| ParamError::Invalid { key: key.into(), value: v.to_string(), message: m.into() };

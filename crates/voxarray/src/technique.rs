@@ -100,7 +100,7 @@ impl LightsVoxArray {
             id: "lights-voxarray",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon, disk_cache",
+            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, cluster (ours), type_resolution, lights, epsilon, disk_cache",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
@@ -145,13 +145,20 @@ impl Technique for LightsVoxArray {
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = Stats::default();
         let scene = ctx.scene();
-        // Alg. 1 builds the plain array (d² voxelizations of N³ bits) before any compression.
+        // The build's peak: the plain array (d² voxelizations of N³ bits) when uncompressed;
+        // streamed into the compression, a 32-bit id per row plus the packed indices (the
+        // slabs' distinct-row tables come on top and depend on the scene).
         if self.structure.is_none() {
             let (n, d) = (self.params.resolution as u64, self.params.directions as u64);
-            glimpse_core::memory_budget::check(
-                format!("lights-voxarray: the {n}³ × {d}² array of voxelizations before compression"),
-                d * d * n * n * n / 8,
-            )?;
+            let rows = d * d * n * n;
+            let (what, bytes) = match &self.params.compress {
+                None => (format!("lights-voxarray: the {n}³ × {d}² array of voxelizations"), rows * n / 8),
+                Some(c) => {
+                    let bits = crate::compress::index_bits(c.dictionary_rows as usize) as u64;
+                    (format!("lights-voxarray: building the {n}³ × {d}² array streamed into its compression"), rows * 4 + rows * bits / 8)
+                }
+            };
+            glimpse_core::memory_budget::check(what, bytes)?;
         }
         if scene.meshes.iter().any(|m| m.deformation.is_some()) {
             let p = VoxArrayParams { compress: None, ..self.params };
