@@ -1,6 +1,7 @@
 //! The `glimpse` command line (the contract is in docs/cli.md): render, scenes, techniques.
 //! Every failure prints one `error:` line naming the file or argument and exits non-zero.
 
+mod aov;
 mod args;
 mod bench_cmd;
 mod eval_cmd;

@@ -37,12 +37,19 @@ pub struct RenderArgs {
     /// Output image: .png (tone-mapped sRGB), .exr or .hdr (linear).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Also write these AOVs as channel groups of the .exr output: albedo, normal, depth,
+    /// position (comma-separated; e.g. for a denoiser).
+    #[arg(long, value_name = "LIST", value_parser = crate::aov::parse_aovs)]
+    pub aov: Option<crate::aov::AovList>,
     #[command(flatten)]
     pub overrides: SceneArgs,
 }
 
 pub fn run(a: RenderArgs) -> Result<()> {
     check_output(&a.output)?;
+    if a.aov.is_some() && !a.output.extension().is_some_and(|e| e.eq_ignore_ascii_case("exr")) {
+        anyhow::bail!("--aov: AOVs are written as channels of an .exr output, not {}", a.output.display());
+    }
     if !a.exposure.is_finite() || a.exposure.abs() > 64.0 {
         anyhow::bail!("--exposure {}: must be a finite number of stops within ±64", a.exposure);
     }
@@ -78,7 +85,15 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let (image, render) = render_film(technique.as_mut(), &mut ctx)?;
     let total_ms = total.ms();
 
-    image.write(&a.output, ToneMap { exposure: a.exposure }).context("writing the image")?;
+    match &a.aov {
+        // The first pass's GBuffer (the film's first sample of every pixel).
+        Some(aovs) => {
+            (ctx.film_pass, ctx.frame_index) = (0, 0);
+            image.write_exr_with_channels(&a.output, &crate::aov::channels(&ctx.gbuffer(), &aovs.0))
+        }
+        None => image.write(&a.output, ToneMap { exposure: a.exposure }),
+    }
+    .context("writing the image")?;
     // A "ray" is whatever the technique counts as one visibility query; a technique that traces
     // none (wavecache reads a cache) gets no figure rather than a meaningless 0.00.
     let throughput = match render.rays {

@@ -447,3 +447,62 @@ fn typos_get_a_did_you_mean_and_unwritable_outputs_fail_before_work() {
 fn bench_only_rejects_unknown_backends() {
     assert_error(&glimpse(&["bench", "rays", "cornell", "--only", "romaa", "--rays", "100"]), &["--only romaa", "did you mean 'roma'"]);
 }
+
+/// `render --aov` writes the GBuffer's albedo, normal, depth and position as channel groups of
+/// the EXR beside the unchanged image; a non-EXR output or an unknown AOV is an error up front.
+#[test]
+fn aovs_are_written_as_exr_channels_beside_the_image() {
+    let (with, without) = (tmp("aov.exr"), tmp("no-aov.exr"));
+    let args = |out: &std::path::Path| {
+        ["render", "cornell", "-t", "ao-exact", "--size", "24x16", "--spp", "2", "-o", out.to_str().unwrap()].map(str::to_owned).to_vec()
+    };
+    let mut a = args(&with);
+    a.extend(["--aov".to_owned(), "albedo,normal,depth,position".to_owned()]);
+    let o = glimpse(&a.iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let o = glimpse(&args(&without).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success());
+    let image = exr::prelude::read_all_flat_layers_from_file(&with).expect("the EXR reads back");
+    let layer = &image.layer_data[0];
+    let channel = |name: &str| -> Vec<f32> {
+        let c = layer.channel_data.list.iter().find(|c| c.name.to_string() == name).unwrap_or_else(|| panic!("no channel {name}"));
+        c.sample_data.values_as_f32().collect()
+    };
+    let names: Vec<String> = layer.channel_data.list.iter().map(|c| c.name.to_string()).collect();
+    println!("channels: {names:?}");
+    assert_eq!(names.len(), 3 + 3 + 3 + 1 + 3);
+    // The image itself is the render without AOVs.
+    let plain = glimpse_core::Image::read(&without).unwrap();
+    for (k, c) in ["R", "G", "B"].iter().enumerate() {
+        assert!(channel(c).iter().zip(&plain.pixels).all(|(a, p)| *a == p[k]), "channel {c} differs from the plain render");
+    }
+    // Hits: unit normals, finite positive depth equal to the distance from the camera, an albedo
+    // of the box's colours (all within [0, 1]).
+    let (nx, ny, nz, depth) = (channel("normal.X"), channel("normal.Y"), channel("normal.Z"), channel("depth.Z"));
+    let (px, py, pz) = (channel("position.X"), channel("position.Y"), channel("position.Z"));
+    let scene = glimpse_scene::load("cornell").unwrap();
+    let eye = scene.camera.expect("cornell has a camera").position;
+    let mut hits = 0;
+    for i in 0..depth.len() {
+        if depth[i].is_finite() {
+            hits += 1;
+            let n = (nx[i] * nx[i] + ny[i] * ny[i] + nz[i] * nz[i]).sqrt();
+            let d = (glimpse_core::Vec3::new(px[i], py[i], pz[i]) - eye).length();
+            assert!(
+                (n - 1.0).abs() < 1e-3 && depth[i] > 0.0 && (d - depth[i]).abs() < 1e-3 * depth[i].max(1.0),
+                "pixel {i}: |n| {n}, depth {} vs {d}",
+                depth[i]
+            );
+        }
+    }
+    assert!(hits > depth.len() / 2, "{hits} hits");
+    assert!(channel("albedo.G").iter().all(|v| (0.0..=1.0).contains(v)) && channel("albedo.R").iter().any(|v| *v > 0.1));
+    assert_error(
+        &glimpse(&["render", "cornell", "-t", "ao-exact", "--aov", "albedo", "-o", tmp("aov.png").to_str().unwrap()]),
+        &["--aov", ".exr"],
+    );
+    assert_error(
+        &glimpse(&["render", "cornell", "-t", "ao-exact", "--aov", "albdeo", "-o", with.to_str().unwrap()]),
+        &["albdeo", "albedo"],
+    );
+}

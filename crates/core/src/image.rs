@@ -172,6 +172,38 @@ impl Image {
         crate::atomic_file::write_atomic(path, encode).map_err(|e| io(format!("cannot {}: {}", e.step, e.source)))
     }
 
+    /// Writes an `.exr` holding this image as its R, G, B channels and `extra` channel groups
+    /// (AOVs) beside them, named `group.channel` (e.g. `albedo.R`, `normal.X`, `depth.Z`): one
+    /// part with dotted channel names, the layout tev, Blender and denoisers' tools read as
+    /// layers. Each extra channel holds `width × height` values in scanline order.
+    pub fn write_exr_with_channels(&self, path: &Path, extra: &[(String, Vec<f32>)]) -> Result<(), ImageError> {
+        let io = |message: String| ImageError::Io { path: path.to_owned(), message };
+        if extension(path) != "exr" {
+            return Err(io("extra channels (AOVs) need an .exr output".into()));
+        }
+        let n = self.pixels.len();
+        if self.width == 0 || self.height == 0 {
+            return Err(ImageError::Empty { path: path.to_owned() });
+        }
+        if let Some((name, _)) = extra.iter().find(|(_, v)| v.len() != n) {
+            return Err(io(format!("channel {name} does not hold one value per pixel")));
+        }
+        use exr::prelude::{AnyChannel, AnyChannels, Encoding, FlatSamples, Layer, LayerAttributes, SmallVec, WritableImage};
+        let mut channels: SmallVec<[AnyChannel<FlatSamples>; 4]> = SmallVec::new();
+        for (k, name) in ["R", "G", "B"].iter().enumerate() {
+            channels.push(AnyChannel::new(*name, FlatSamples::F32(self.pixels.iter().map(|p| p[k]).collect())));
+        }
+        for (name, values) in extra {
+            channels.push(AnyChannel::new(name.as_str(), FlatSamples::F32(values.clone())));
+        }
+        let size = (self.width as usize, self.height as usize);
+        let layer = Layer::new(size, LayerAttributes::default(), Encoding::SMALL_LOSSLESS, AnyChannels::sort(channels));
+        let encode = |w: &mut std::io::BufWriter<std::fs::File>| -> std::io::Result<()> {
+            exr::image::Image::from_layer(layer).write().to_buffered(w).map_err(|e| std::io::Error::other(e.to_string()))
+        };
+        crate::atomic_file::write_atomic(path, encode).map_err(|e| io(format!("cannot {}: {}", e.step, e.source)))
+    }
+
     /// The tone-mapped 8-bit sRGB image (see the module doc for the curve).
     pub fn to_srgb8(&self, tone: ToneMap) -> ::image::RgbImage {
         let scale = tone.exposure.exp2();
