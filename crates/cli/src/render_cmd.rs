@@ -41,6 +41,10 @@ pub struct RenderArgs {
     /// position (comma-separated; e.g. for a denoiser).
     #[arg(long, value_name = "LIST", value_parser = crate::aov::parse_aovs)]
     pub aov: Option<crate::aov::AovList>,
+    /// Stream the image to a running tev (HOST:PORT, default 127.0.0.1:14158) after every film
+    /// pass (`--film-samples N` gives N updates as the image converges).
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
+    pub tev: Option<String>,
     #[command(flatten)]
     pub overrides: SceneArgs,
 }
@@ -81,8 +85,25 @@ pub fn run(a: RenderArgs) -> Result<()> {
     let sw = Stopwatch::start();
     let mut ctx = with_spinner("building the scene's tracer", || FrameContext::new(&scene, a.time, width, height));
     let tracer_ms = sw.ms();
+    // tev: an image named after the technique and scene, updated after every pass.
+    let mut tev = match &a.tev {
+        Some(address) => {
+            let name = format!("{} {}", a.technique, a.scene);
+            Some(
+                glimpse_core::tev::Tev::connect(address, &name, width, height)
+                    .with_context(|| format!("--tev: cannot reach tev at {address}"))?,
+            )
+        }
+        None => None,
+    };
     let prepare = with_spinner(&format!("preparing {}", a.technique), || technique.prepare(&ctx))?;
-    let (image, render) = render_film(technique.as_mut(), &mut ctx)?;
+    let (image, render) = render_film(technique.as_mut(), &mut ctx, |partial| {
+        // A viewer that went away does not stop the render.
+        if let Some(Err(e)) = tev.as_mut().map(|t| t.update(partial)) {
+            eprintln!("warning: --tev: {e}; not streaming any more");
+            tev = None;
+        }
+    })?;
     let total_ms = total.ms();
 
     match &a.aov {
@@ -161,6 +182,7 @@ pub fn with_spinner<T>(label: &str, f: impl FnOnce() -> T) -> T {
 fn render_film(
     technique: &mut dyn glimpse_render::Technique,
     ctx: &mut FrameContext,
+    mut on_pass: impl FnMut(&glimpse_core::Image),
 ) -> Result<(glimpse_core::Image, glimpse_render::Stats)> {
     let passes = ctx.film.samples.max(1);
     let mut sum = ctx.image();
@@ -174,8 +196,13 @@ fn render_film(
         let self_accumulating = s.stages.iter().any(|(stage, _)| stage == "accumulate");
         if self_accumulating || passes == 1 {
             sum = image.clone();
+            on_pass(&sum);
         } else {
             sum.pixels.iter_mut().zip(&image.pixels).for_each(|(t, p)| *t += *p / passes as f32);
+            // The passes so far, at full brightness.
+            let mut so_far = sum.clone();
+            so_far.pixels.iter_mut().for_each(|p| *p *= passes as f32 / (pass + 1) as f32);
+            on_pass(&so_far);
         }
         stats.merge(s);
     }

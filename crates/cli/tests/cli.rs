@@ -506,3 +506,71 @@ fn aovs_are_written_as_exr_channels_beside_the_image() {
         &["albdeo", "albedo"],
     );
 }
+
+/// The tev packets of one connection: (type, payload after the type byte), checking each
+/// packet's length prefix.
+fn tev_packets(bytes: &[u8]) -> Vec<(u8, Vec<u8>)> {
+    let mut out = Vec::new();
+    let mut at = 0;
+    while at < bytes.len() {
+        let n = u32::from_le_bytes(bytes[at..at + 4].try_into().unwrap()) as usize;
+        assert!(n >= 5 && at + n <= bytes.len(), "packet length {n} at {at} of {}", bytes.len());
+        out.push((bytes[at + 4], bytes[at + 5..at + n].to_vec()));
+        at += n;
+    }
+    out
+}
+
+/// `render --tev HOST:PORT` speaks tev's protocol: CreateImage, then one UpdateImageV3 per film
+/// pass whose last one is the written image; an unreachable tev is an error before rendering.
+#[test]
+fn tev_receives_the_image_as_it_converges() {
+    use std::io::Read;
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    let server = std::thread::spawn(move || {
+        let (mut s, _) = listener.accept().unwrap();
+        let mut bytes = Vec::new();
+        s.read_to_end(&mut bytes).unwrap();
+        bytes
+    });
+    let out = tmp("tev.exr");
+    let o = glimpse(&[
+        "render",
+        "cornell",
+        "-t",
+        "ao-exact",
+        "--size",
+        "20x12",
+        "--spp",
+        "1",
+        "--film-samples",
+        "3",
+        "--tev",
+        &address,
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let packets = tev_packets(&server.join().unwrap());
+    println!("{} packets: types {:?}", packets.len(), packets.iter().map(|p| p.0).collect::<Vec<_>>());
+    assert_eq!(packets.iter().map(|p| p.0).collect::<Vec<_>>(), [4, 6, 6, 6]);
+    // CreateImage: grab focus, name, 20 × 12, 3 channels R, G, B.
+    let create = &packets[0].1;
+    let name = b"ao-exact cornell\0";
+    assert_eq!(&create[1..1 + name.len()], name);
+    let ints: Vec<i32> = create[1 + name.len()..1 + name.len() + 12].chunks(4).map(|c| i32::from_le_bytes(c.try_into().unwrap())).collect();
+    assert_eq!(ints, [20, 12, 3]);
+    assert_eq!(&create[1 + name.len() + 12..], b"R\0G\0B\0");
+    // The last update's samples are the written image.
+    let update = &packets[3].1;
+    let header = 1 + name.len() + 4 + 6 + 16 + 48;
+    let samples: Vec<f32> = update[header..].chunks(4).map(|c| f32::from_le_bytes(c.try_into().unwrap())).collect();
+    let image = glimpse_core::Image::read(&out).unwrap();
+    assert_eq!(samples.len(), 20 * 12 * 3);
+    assert!(samples.chunks(3).zip(&image.pixels).all(|(s, p)| s == [p.x, p.y, p.z]), "the last update is the image");
+    assert_error(
+        &glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "8x8", "--tev", "127.0.0.1:1", "-o", out.to_str().unwrap()]),
+        &["tev", "127.0.0.1:1"],
+    );
+}

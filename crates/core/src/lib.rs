@@ -18,6 +18,7 @@ pub mod ray;
 pub mod sampling;
 pub mod sh;
 pub mod suggest;
+pub mod tev;
 
 pub use aabb::Aabb;
 pub use frame::Frame;
