@@ -25,7 +25,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let (w, h) = args[2].split_once('x').ok_or("size WxH")?;
     let (w, h): (u32, u32) = (w.parse()?, h.parse()?);
     let params = Params::parse(&args[3..])?;
-    let mut t = Wavecache::new(&Settings { spp: 1, seed: 0 }, &params)?;
+    let spp = std::env::var("DIAG_SPP").ok().and_then(|v| v.parse().ok()).unwrap_or(1);
+    let mut t = Wavecache::new(&Settings { spp, seed: 0 }, &params)?;
     params.finish("wavecache")?;
     let ctx = FrameContext::new(&scene, 0.0, w, h);
     let g = ctx.gbuffer();
@@ -33,6 +34,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut img = ctx.image();
     let rend = t.render(&ctx, &g, &mut img)?;
     let mut per = vec![(0.0f64, 0usize); scene.materials.len() + 1];
+    // Mean luminance per material, technique and reference (bias apart from noise).
+    let mut means = vec![(0.0f64, 0.0f64); scene.materials.len() + 1];
     let mut total = 0.0f64;
     for i in 0..img.pixels.len() {
         let d = img.pixels[i] - reference.pixels[i];
@@ -41,6 +44,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let m = if g.is_hit(i) { g.material[i] as usize } else { scene.materials.len() };
         per[m].0 += e;
         per[m].1 += 1;
+        means[m].0 += glimpse_core::luminance(img.pixels[i]) as f64;
+        means[m].1 += glimpse_core::luminance(reference.pixels[i]) as f64;
     }
     let n = img.pixels.len() as f64;
     println!("prepare {:?}\nrender {:?}\nstorage {} bytes", prep.stages, rend.stages, prep.memory_bytes);
@@ -48,7 +53,12 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     for (m, (e, c)) in per.iter().enumerate() {
         let name = scene.materials.get(m).map_or("background", |x| x.name.as_str());
         if *c > 0 {
-            println!("  {name:>14}: {c:6} px, share of image MSE {:.3e}, own MSE {:.3e}", e / n, e / *c as f64);
+            let (a, b) = (means[m].0 / *c as f64, means[m].1 / *c as f64);
+            println!(
+                "  {name:>14}: {c:6} px, share of image MSE {:.3e}, own MSE {:.3e}, mean luminance {a:.4} vs reference {b:.4}",
+                e / n,
+                e / *c as f64
+            );
         }
     }
     if let Some(c) = &t.cache {

@@ -574,8 +574,9 @@ pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
     let scene = frame.scene;
     let mut h = Fnv::default();
     h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
-    // Every parameter that changes the result (not the progress bar or the disk-cache switch).
-    let p = WavecacheParams { disk_cache: true, progress: true, ..p.clone() };
+    // Every parameter that changes the cache (not the progress bar, the disk-cache switch or the
+    // runtime-only tracing of sharp lobes).
+    let p = WavecacheParams { disk_cache: true, progress: true, trace_sharp: true, ..p.clone() };
     h.bytes(format!("{p:?} seed={seed}").as_bytes());
     for (i, inst) in scene.instances.iter().enumerate() {
         h.f32s(frame.transforms[i].to_cols_array());

@@ -117,8 +117,12 @@ pub struct WavecacheParams {
     pub layers: u32,
     /// Roughness below which a surface is a mirror (paper 0.1).
     pub mirror_roughness: f32,
-    /// Mirror chain depth (paper 4).
+    /// Mirror chain depth (paper 4); also the depth of traced sharp glossy samples.
     pub mirror_depth: u32,
+    /// Glossy lobes narrower than their radiance map's texel are traced, one BSDF sample per
+    /// pixel sample (`trace_sharp`, ours; off in `profile=paper`; see
+    /// [`technique::lobe_finer_than_map`]).
+    pub trace_sharp: bool,
     /// Clear-coat ray chain depth (paper 3; spec §5: "The maximum tracing depth is set to 3").
     pub coat_depth: u32,
     /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
@@ -159,6 +163,7 @@ impl Default for WavecacheParams {
             layers: 0,
             mirror_roughness: 0.1,
             mirror_depth: 4,
+            trace_sharp: true,
             coat_depth: 3,
             diffuse_roughness: 0.8,
             brdf: BrdfModel::Pbr,
@@ -172,7 +177,16 @@ impl Default for WavecacheParams {
 impl WavecacheParams {
     /// The paper's settings where it gives them (Sec. 4, 6, Table 2).
     pub fn paper() -> Self {
-        Self { brdf_grid_u1: 172, brdf_grid_u2: 1080, brdf_res: 128, map_scale: 1, texel_samples: 128, path_budget: 0, ..Self::default() }
+        Self {
+            brdf_grid_u1: 172,
+            brdf_grid_u2: 1080,
+            brdf_res: 128,
+            map_scale: 1,
+            texel_samples: 128,
+            path_budget: 0,
+            trace_sharp: false,
+            ..Self::default()
+        }
     }
 
     /// Reads every key (defaults above; `profile=paper` starts from [`WavecacheParams::paper`]).
@@ -211,6 +225,7 @@ impl WavecacheParams {
             layers: params.u32("layers", base.layers, 0, 32)?,
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,
+            trace_sharp: params.bool("trace_sharp", base.trace_sharp)?,
             coat_depth: params.u32("coat_depth", base.coat_depth, 1, 64)?,
             diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
             brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {

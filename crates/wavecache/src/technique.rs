@@ -143,6 +143,25 @@ pub struct Runtime<'a> {
     pub frame: &'a glimpse_scene::SceneFrame<'a>,
     pub vis: &'a glimpse_trace::ExactTracer,
     pub classes: Vec<Class>,
+    /// Per material: a glossy lobe too narrow for its radiance map, shaded by tracing a sample
+    /// of its BSDF instead of Eq. 20 ([`lobe_finer_than_map`]).
+    pub traced: Vec<bool>,
+}
+
+/// Whether a GGX lobe of `roughness` is narrower than a texel of a radiance half-cube map of
+/// resolution `map_res` (Table 2 ÷ `map_scale`): reflected directions spread over about 2α
+/// (α = roughness²) around the mirror direction, a texel spans about π / `map_res`.
+///
+/// Why (issue #13, a deviation): such a lobe cannot be represented by the map. Eq. 20 then
+/// spreads a small bright emitter's texel over the whole lobe's peak, and a near-mirror sphere
+/// (roughness 0.12, 32² maps at `map_scale` 4) showed glints up to 40× `pt` (own MSE 1.0e3 on the
+/// `glints` suite scene). Those materials are shaded as a renderer shades sharp reflections: one
+/// BSDF sample per pixel sample, traced, its hit shaded from the cache (up to `mirror_depth`).
+/// The paper's Table 2 starts its 128² maps at roughness 0.1; at `map_scale` 1 the rule keeps
+/// roughness above 0.111 on the cache. Materials below the mirror threshold with a non-zero roughness
+/// are traced the same way (their GGX lobe, as `pt` has it, instead of Eq. 18's perfect mirror).
+pub fn lobe_finer_than_map(roughness: f32, map_res: u32) -> bool {
+    2.0 * roughness * roughness < std::f32::consts::PI / map_res as f32
 }
 
 /// Per-texel albedo on a shared glossy lobe: the BRDF trees are tabulated once per material with
@@ -187,8 +206,21 @@ impl<'a> Runtime<'a> {
         frame: &'a glimpse_scene::SceneFrame<'a>,
         vis: &'a glimpse_trace::ExactTracer,
     ) -> Self {
-        let classes = frame.scene.materials.iter().map(|m| params.classify(m)).collect();
-        Self { cache, params, frame, vis, classes }
+        let classes: Vec<Class> = frame.scene.materials.iter().map(|m| params.classify(m)).collect();
+        let traced = frame
+            .scene
+            .materials
+            .iter()
+            .zip(&classes)
+            .map(|(m, c)| {
+                let sharp_glossy =
+                    *c == Class::Glossy && params.map_resolution(m.roughness).is_some_and(|n| lobe_finer_than_map(m.roughness, n));
+                // Below the mirror threshold but not smooth: `pt`'s GGX lobe, not Eq. 18's mirror.
+                let rough_mirror = *c == Class::Mirror && m.roughness > 0.0;
+                params.trace_sharp && (sharp_glossy || rough_mirror)
+            })
+            .collect();
+        Self { cache, params, frame, vis, classes, traced }
     }
 
     /// The cache point chosen for (x, n) on instance `inst`.
@@ -302,13 +334,26 @@ impl<'a> Runtime<'a> {
     }
 
     /// Everything reflected at `s` towards `wo` (no emission of `s`); (radiance, rays).
-    pub fn shade(&self, s: &ShadePoint, wo: Vec3, depth: u32) -> (Vec3, u64) {
+    pub fn shade(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
-        if class == Class::Mirror {
-            return self.mirror(s, wo, depth);
+        let traced = self.traced.get(s.material as usize).copied().unwrap_or(false);
+        if class == Class::Mirror && !traced {
+            return self.mirror(s, wo, depth, rng);
         }
-        let (d, rays) = self.punctual(s, wo);
-        let base = d + self.cached(s, wo);
+        let (d, mut rays) = self.punctual(s, wo);
+        let indirect = if traced && depth + 1 < self.params.mirror_depth {
+            let (l, r) = self.traced_sample(s, wo, depth, rng);
+            rays += r;
+            l
+        } else if class == Class::Mirror {
+            // The end of a traced chain on a mirror: its mirror reflection's emission only.
+            let (l, r) = self.mirror(s, wo, depth, rng);
+            rays += r;
+            l
+        } else {
+            self.cached(s, wo)
+        };
+        let base = d + indirect;
         let gamma = self.frame.scene.materials[s.material as usize].clearcoat;
         if gamma <= 0.0 || self.params.brdf != BrdfModel::Pbr {
             return (base, rays);
@@ -318,15 +363,21 @@ impl<'a> Runtime<'a> {
         // traced (h = n for the smooth coat, as `pt`'s `ClearCoat`).
         let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
         let fc = clear_coat_fresnel(ns.dot(wo).clamp(0.0, 1.0), gamma);
-        let (coat, coat_rays) = self.specular_ray(s, wo, ns, depth, self.params.coat_depth);
+        let (coat, coat_rays) = self.specular_ray(s, wo, ns, depth, self.params.coat_depth, rng);
         (base * (1.0 - fc) + coat * fc, rays + coat_rays)
     }
 
     /// Radiance arriving at `s` along the mirror direction of `wo` about `ns`: the environment on
     /// a miss, else the hit's emission plus its own shading while the chain is shorter than
     /// `max_depth` (emission only at the last link). (radiance, rays).
-    fn specular_ray(&self, s: &ShadePoint, wo: Vec3, ns: Vec3, depth: u32, max_depth: u32) -> (Vec3, u64) {
+    fn specular_ray(&self, s: &ShadePoint, wo: Vec3, ns: Vec3, depth: u32, max_depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let dir = bsdf::reflect(wo, ns).normalize();
+        self.incoming(s, dir, depth, max_depth, rng)
+    }
+
+    /// Radiance arriving at `s` from unit direction `dir`, traced: the environment on a miss,
+    /// else the hit's emission plus its own shading while the chain is shorter than `max_depth`.
+    fn incoming(&self, s: &ShadePoint, dir: Vec3, depth: u32, max_depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         if dir.dot(s.normal) <= 0.0 {
             return (Vec3::ZERO, 0);
         }
@@ -347,12 +398,27 @@ impl<'a> Runtime<'a> {
             material: sp.material,
             instance: sp.instance,
         };
-        let (l, rays) = self.shade(&next, -dir, depth + 1);
+        let (l, rays) = self.shade(&next, -dir, depth + 1, rng);
         (le + l, rays + 1)
     }
 
+    /// A sharp glossy lobe's reflected radiance (everything but punctual lights) from one BSDF
+    /// sample, traced ([`lobe_finer_than_map`]): f cos / pdf × the radiance arriving along it.
+    fn traced_sample(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
+        let m = &self.frame.scene.materials[s.material as usize];
+        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+            return (Vec3::ZERO, 0);
+        };
+        let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
+        let Some(bs) = b.sample(u_lobe, u) else {
+            return (Vec3::ZERO, 0);
+        };
+        let (l, rays) = self.incoming(s, bs.wi, depth, self.params.mirror_depth, rng);
+        (l * bs.f * (bs.cos / bs.pdf), rays)
+    }
+
     /// Eq. 18: the perfect-mirror chain.
-    fn mirror(&self, s: &ShadePoint, wo: Vec3, depth: u32) -> (Vec3, u64) {
+    fn mirror(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let m = &self.frame.scene.materials[s.material as usize];
         let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
         let cos = ns.dot(wo);
@@ -361,7 +427,7 @@ impl<'a> Runtime<'a> {
         }
         let f0 = Vec3::splat(0.04).lerp(s.base, m.metallic.clamp(0.0, 1.0));
         let f = bsdf::schlick(f0, cos);
-        let (l, rays) = self.specular_ray(s, wo, ns, depth, self.params.mirror_depth);
+        let (l, rays) = self.specular_ray(s, wo, ns, depth, self.params.mirror_depth, rng);
         (f * l, rays)
     }
 }
@@ -394,8 +460,18 @@ impl Technique for Wavecache {
         let mut stats = Stats { memory_bytes: cache.memory_bytes(), ..Default::default() };
         let rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
         stats.rays = stats.time("shade", || {
-            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, _rng: &mut Rng| {
-                rt.shade(&ShadePoint::at_pixel(gbuffer, i), -gbuffer.view_dir[i], 0)
+            let spp = self.settings.spp.max(1);
+            direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng: &mut Rng| {
+                let p = ShadePoint::at_pixel(gbuffer, i);
+                // The cache is read deterministically; only a traced (sharp) lobe draws random
+                // numbers, so only it takes the pixel's `spp` samples.
+                let samples = if rt.traced.get(p.material as usize).copied().unwrap_or(false) { spp } else { 1 };
+                let (mut sum, mut rays) = (Vec3::ZERO, 0);
+                for _ in 0..samples {
+                    let (l, r) = rt.shade(&p, -gbuffer.view_dir[i], 0, rng);
+                    (sum, rays) = (sum + l, rays + r);
+                }
+                (sum / samples as f32, rays)
             })
         })?;
         Ok(stats)

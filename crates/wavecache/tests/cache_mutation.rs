@@ -43,7 +43,7 @@ fn shade_all(cache: &WaveCache, p: &WavecacheParams, ctx: &FrameContext, g: &GBu
     let rt = Runtime::new(cache, p, &ctx.frame, &ctx.tracer);
     (0..g.position.len())
         .filter(|&i| g.instance[i] != glimpse_trace::gbuffer::NO_HIT)
-        .map(|i| rt.shade(&ShadePoint::at_pixel(g, i), -g.view_dir[i], 0).0)
+        .map(|i| rt.shade(&ShadePoint::at_pixel(g, i), -g.view_dir[i], 0, &mut glimpse_core::Rng::new(i as u64, 0)).0)
         .collect()
 }
 
