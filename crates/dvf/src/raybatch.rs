@@ -26,6 +26,7 @@
 use crate::rays::RaySet;
 use glimpse_core::Vec3;
 use glimpse_core::sampling::radical_inverse_base2;
+use glimpse_scene::Environment;
 use std::sync::LazyLock;
 
 /// The largest ray set formed in a block; larger sets take the per-ray path.
@@ -458,4 +459,27 @@ mod avx2 {
         // SAFETY: base + 8 ≤ MAX_RAYS.
         unsafe { _mm256_storeu_si256(out.pixel.as_mut_ptr().add(base).cast(), octahedral8(x, y, z, r)) };
     }
+}
+
+/// `env.radiance(d)`, bit for bit: the same `dir_to_uv` and the same bilinear arithmetic as
+/// `Image::sample_bilinear(u, v, false)`, with the column wrap `rem_euclid` (a 64-bit division
+/// per fetch, 4 per lookup) taken only for columns outside [0, w) (never, for u in [0, 1]).
+#[inline]
+pub fn radiance(env: &Environment, d: Vec3) -> Vec3 {
+    let uv = Environment::dir_to_uv(d);
+    let img = &env.image;
+    let (w, h) = (img.width as i64, img.height as i64);
+    let x = uv.x * w as f32 - 0.5;
+    let y = uv.y * h as f32 - 0.5;
+    let (x0, y0) = (x.floor(), y.floor());
+    let (fx, fy) = (x - x0, y - y0);
+    let fetch = |xi: i64, yi: i64| {
+        let xi = if (0..w).contains(&xi) { xi } else { xi.rem_euclid(w) };
+        let yi = yi.clamp(0, h - 1);
+        img.pixels[(yi * w + xi) as usize]
+    };
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let top = fetch(x0, y0).lerp(fetch(x0 + 1, y0), fx);
+    let bottom = fetch(x0, y0 + 1).lerp(fetch(x0 + 1, y0 + 1), fx);
+    top.lerp(bottom, fy) * env.scale
 }

@@ -222,7 +222,9 @@ impl Runtime<'_> {
     /// bits at once, one mask lookup per ray into a bit set of the rays to trace, then those
     /// rays traced in batches in ascending k, so every sum adds the same terms in the same order
     /// as [`Self::irradiance_per_ray`]. A cell whose trace mask is empty forms no directions
-    /// (unless `unshadowed=rays` needs them for E_unshad).
+    /// (unless `unshadowed=rays` needs them for E_unshad). L(ω) through [`raybatch::radiance`]
+    /// (`env.radiance` without its divisions), rays spawned from one origin per fragment (the
+    /// one `Shading::spawn` computes for every ray above the geometric horizon).
     pub fn irradiance_batched(&self, s: &Shading, set: &RaySet, former: Former) -> (Vec3, u64) {
         let cell = self.dvf.grid.cell_of(s.position);
         let label = self.force_label.unwrap_or(self.dvf.labels[cell]);
@@ -263,7 +265,7 @@ impl Runtime<'_> {
         let mut unshadowed = Vec3::ZERO;
         if rays_unshadowed {
             for k in bits(&b.used) {
-                unshadowed += self.env.radiance(b.direction(k)) * inv;
+                unshadowed += raybatch::radiance(self.env, b.direction(k)) * inv;
             }
         }
         // Label 1 adds what escapes, label 0 what is blocked.
@@ -277,12 +279,15 @@ impl Runtime<'_> {
             self.vis.occluded_batch(&batch[..m], &mut occluded[..m]);
             for (&k, &o) in index[..m].iter().zip(&occluded[..m]) {
                 if o == add_when_occluded {
-                    *sum += self.env.radiance(b.direction(k)) * inv;
+                    *sum += raybatch::radiance(self.env, b.direction(k)) * inv;
                 }
             }
         };
+        // `s.spawn(d)` of a traced ray: above the geometric horizon (n·d > 0, or NaN), so its
+        // origin is always pushed along +n: one origin per fragment.
+        let origin = glimpse_core::ray::offset_origin(s.position, s.normal);
         for k in bits(&trace) {
-            batch[m] = (s.spawn(b.direction(k)), f32::INFINITY);
+            batch[m] = (glimpse_core::Ray::new(origin, b.direction(k)), f32::INFINITY);
             index[m] = k;
             m += 1;
             rays += 1;

@@ -228,3 +228,32 @@ fn sincos_replica_equals_platform_sin_cos() {
     println!("{compared} angles compared: {diffs} differ");
     assert_eq!(diffs, 0);
 }
+
+#[test]
+fn radiance_replica_equals_environment_radiance() {
+    let mut rng = Rng::new(17, 1);
+    let mut maps = vec![("sky", glimpse_scene::load("sky").unwrap().environment.unwrap())];
+    maps.push(("constant", glimpse_scene::Environment::constant(Vec3::new(0.3, 0.5, 0.7))));
+    let mut tiny = Image::new(7, 3);
+    for (i, p) in tiny.pixels.iter_mut().enumerate() {
+        *p = Vec3::new(i as f32, (i * i) as f32 * 0.1, 1.0 / (i + 1) as f32);
+    }
+    maps.push(("7x3", glimpse_scene::Environment::new(tiny, 1.7)));
+    let (mut compared, mut diffs) = (0u64, 0u64);
+    for (name, env) in &maps {
+        let mut dirs: Vec<Vec3> =
+            vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z, Vec3::new(-0.0, 0.0, -1.0), Vec3::new(0.0, -0.0, 1.0)];
+        dirs.extend((0..200_000).map(|_| uniform_sphere(rng.next_2d())));
+        // The seam u = 0 / 1 (d.x = ±0, d.z > 0) and the poles.
+        dirs.extend((0..2000).map(|i| Vec3::new(if i % 2 == 0 { 0.0 } else { -0.0 }, (i as f32 / 1000.0) - 1.0, 1.0).normalize()));
+        dirs.extend((0..2000).map(|i| Vec3::new(1e-7 * (i as f32 - 1000.0), 1.0, -1e-7).normalize()));
+        for d in dirs {
+            let (a, b) = (env.radiance(d), glimpse_dvf::raybatch::radiance(env, d));
+            diffs += (a.to_array().map(f32::to_bits) != b.to_array().map(f32::to_bits)) as u64;
+            compared += 1;
+        }
+        println!("{name}: compared");
+    }
+    println!("{compared} radiance lookups compared: {diffs} differ");
+    assert_eq!(diffs, 0);
+}
