@@ -461,11 +461,21 @@ mod avx2 {
     }
 }
 
-/// `env.radiance(d)`, bit for bit: the same `dir_to_uv` and the same bilinear arithmetic as
+/// The four texels and weights of `env.radiance(d)`'s bilinear lookup ([`radiance`] in two
+/// steps, so that a batch of lookups can prefetch its texels before reading any).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Tap {
+    /// Texel indices: (x0, y0), (x0 + 1, y0), (x0, y0 + 1), (x0 + 1, y0 + 1).
+    pub texels: [usize; 4],
+    pub fx: f32,
+    pub fy: f32,
+}
+
+/// `env.radiance(d)`'s texels and weights: the same `dir_to_uv` and the same arithmetic as
 /// `Image::sample_bilinear(u, v, false)`, with the column wrap `rem_euclid` (a 64-bit division
 /// per fetch, 4 per lookup) taken only for columns outside [0, w) (never, for u in [0, 1]).
 #[inline]
-pub fn radiance(env: &Environment, d: Vec3) -> Vec3 {
+pub fn tap(env: &Environment, d: Vec3) -> Tap {
     let uv = Environment::dir_to_uv(d);
     let img = &env.image;
     let (w, h) = (img.width as i64, img.height as i64);
@@ -473,13 +483,39 @@ pub fn radiance(env: &Environment, d: Vec3) -> Vec3 {
     let y = uv.y * h as f32 - 0.5;
     let (x0, y0) = (x.floor(), y.floor());
     let (fx, fy) = (x - x0, y - y0);
-    let fetch = |xi: i64, yi: i64| {
+    let index = |xi: i64, yi: i64| {
         let xi = if (0..w).contains(&xi) { xi } else { xi.rem_euclid(w) };
         let yi = yi.clamp(0, h - 1);
-        img.pixels[(yi * w + xi) as usize]
+        (yi * w + xi) as usize
     };
     let (x0, y0) = (x0 as i64, y0 as i64);
-    let top = fetch(x0, y0).lerp(fetch(x0 + 1, y0), fx);
-    let bottom = fetch(x0, y0 + 1).lerp(fetch(x0 + 1, y0 + 1), fx);
-    top.lerp(bottom, fy) * env.scale
+    Tap { texels: [index(x0, y0), index(x0 + 1, y0), index(x0, y0 + 1), index(x0 + 1, y0 + 1)], fx, fy }
+}
+
+/// Asks for a tap's texels to be brought into cache (a hint; no effect on results).
+#[inline]
+pub fn prefetch(env: &Environment, t: &Tap) {
+    #[cfg(target_arch = "x86_64")]
+    for &i in &[t.texels[0], t.texels[2]] {
+        if let Some(p) = env.image.pixels.get(i) {
+            // SAFETY: a prefetch of a valid address; SSE is baseline on x86-64.
+            unsafe { std::arch::x86_64::_mm_prefetch::<{ std::arch::x86_64::_MM_HINT_T0 }>((p as *const Vec3).cast()) };
+        }
+    }
+    let _ = (env, t);
+}
+
+/// The radiance of a tap: `sample_bilinear`'s lerps, times the map's scale.
+#[inline]
+pub fn tap_radiance(env: &Environment, t: &Tap) -> Vec3 {
+    let p = &env.image.pixels;
+    let top = p[t.texels[0]].lerp(p[t.texels[1]], t.fx);
+    let bottom = p[t.texels[2]].lerp(p[t.texels[3]], t.fx);
+    top.lerp(bottom, t.fy) * env.scale
+}
+
+/// `env.radiance(d)`, bit for bit ([`tap`] then [`tap_radiance`]).
+#[inline]
+pub fn radiance(env: &Environment, d: Vec3) -> Vec3 {
+    tap_radiance(env, &tap(env, d))
 }

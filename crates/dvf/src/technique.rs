@@ -264,9 +264,24 @@ impl Runtime<'_> {
         }
         let mut unshadowed = Vec3::ZERO;
         if rays_unshadowed {
+            // In chunks: every tap's texels prefetched before the first is read.
+            let mut taps = [raybatch::Tap::default(); TRACE_BATCH];
+            let mut m = 0;
+            let add = |taps: &[raybatch::Tap], unshadowed: &mut Vec3| {
+                for t in taps {
+                    *unshadowed += raybatch::tap_radiance(self.env, t) * inv;
+                }
+            };
             for k in bits(&b.used) {
-                unshadowed += raybatch::radiance(self.env, b.direction(k)) * inv;
+                taps[m] = raybatch::tap(self.env, b.direction(k));
+                raybatch::prefetch(self.env, &taps[m]);
+                m += 1;
+                if m == TRACE_BATCH {
+                    add(&taps, &mut unshadowed);
+                    m = 0;
+                }
             }
+            add(&taps[..m], &mut unshadowed);
         }
         // Label 1 adds what escapes, label 0 what is blocked.
         let add_when_occluded = label != 1;
@@ -277,10 +292,18 @@ impl Runtime<'_> {
         let mut m = 0;
         let flush = |m: usize, batch: &[(glimpse_core::Ray, f32)], index: &[usize], occluded: &mut [bool], sum: &mut Vec3| {
             self.vis.occluded_batch(&batch[..m], &mut occluded[..m]);
+            // The lookups of the rays that count, texels prefetched before any is read.
+            let mut taps = [raybatch::Tap::default(); TRACE_BATCH];
+            let mut n = 0;
             for (&k, &o) in index[..m].iter().zip(&occluded[..m]) {
                 if o == add_when_occluded {
-                    *sum += raybatch::radiance(self.env, b.direction(k)) * inv;
+                    taps[n] = raybatch::tap(self.env, b.direction(k));
+                    raybatch::prefetch(self.env, &taps[n]);
+                    n += 1;
                 }
+            }
+            for t in &taps[..n] {
+                *sum += raybatch::tap_radiance(self.env, t) * inv;
             }
         };
         // `s.spawn(d)` of a traced ray: above the geometric horizon (n·d > 0, or NaN), so its
