@@ -13,12 +13,15 @@
 //!   The scalar code calls glibc's `sincosf`; on x86-64 with AVX2 and FMA glibc (≥ 2.28,
 //!   checked against 2.36) runs `__sincosf_fma`, whose every operation (the double-precision
 //!   reduction by π/2 and its two polynomials, fused exactly where that build fuses them) is
-//!   reproduced here on four lanes ([`sincos4_glibc`], constants from glibc's `__sincosf_table`).
-//!   Because another libm would round differently, the AVX2 former is enabled only after a
-//!   one-time self-check against `RaySet::direction` on 128 ray sets × 128 rays and a dense sweep
-//!   of the concentric map's angles (see [`simd_enabled`]); otherwise, or with
-//!   `GLIMPSE_DVF_SCALAR=1`, each direction is `RaySet::direction` (scalar) and only the pixel
-//!   and horizon work is shared.
+//!   reproduced here on four lanes (`avx2::sincos4_glibc`, constants from glibc's
+//!   `__sincosf_table`). Because another libm rounds differently, the AVX2 former is enabled
+//!   only after a one-time self-check against `RaySet::direction` (128 ray sets of 1–128 rays,
+//!   both rotations) and against `sin_cos` on a dense sweep of the concentric map's angles and
+//!   glibc's band edges (see [`simd_enabled`]); otherwise, or with `GLIMPSE_DVF_SCALAR=1`, each
+//!   direction is `RaySet::direction` (scalar) and only the pixel and horizon work is shared. A
+//!   libm that disagreed only very rarely (e.g. glibc's non-FMA variant, which differs from the
+//!   FMA one only where a double result lies within ~2^-50 of a float rounding boundary) could
+//!   pass the self-check; `dvf_sincos_check` settles a platform exhaustively.
 //!
 //! The example `dvf_sincos_check` compares [`sincos_lanes`] with the platform's `sin_cos` on
 //! every f32 in [−1, 2.5] (the concentric map's angles lie in [−π/4, 3π/4]).
