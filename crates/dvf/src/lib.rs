@@ -20,6 +20,7 @@ pub mod field;
 pub mod grid;
 pub mod labels;
 pub mod points;
+pub mod raybatch;
 pub mod rays;
 pub mod scan;
 pub mod technique;

@@ -24,8 +24,15 @@ pub struct RaySet {
 
 impl RaySet {
     pub fn new(normal: Vec3, count: u32, shift: Vec2, about_normal: bool) -> RaySet {
-        let (sin_a, cos_a) = (std::f32::consts::TAU * shift.x).sin_cos();
+        // The angle of `rotation=normal` (unused by the Cranley-Patterson shift).
+        let (sin_a, cos_a) = if about_normal { (std::f32::consts::TAU * shift.x).sin_cos() } else { (0.0, 1.0) };
         RaySet { frame: Frame::from_z(normal), count, shift, about_normal, sin_a, cos_a }
+    }
+
+    /// (sin, cos) of the rotation about the normal (`about_normal`; (0, 1) otherwise).
+    #[inline]
+    pub fn rotation(&self) -> (f32, f32) {
+        (self.sin_a, self.cos_a)
     }
 
     /// World direction of ray k.
