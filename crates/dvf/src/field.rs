@@ -66,8 +66,47 @@ pub fn point_sample(mesh: &WorldMesh, normal: Vec3, first_id: u64, t: &Task, i: 
     PointSample { position, normal, rays: RaySetKey { shift: rng.next_2d() } }
 }
 
-/// Traces one sample's rays into local maps; returns the number of rays traced.
+/// Traces one sample's rays into local maps; returns the number of rays traced. The ray set is
+/// formed as a block ([`crate::raybatch::form`]: the same directions and pixels as
+/// [`RaySet::direction`] and [`octahedral_pixel`], 8 at a time) and the rays above the horizon
+/// go to the tracer as one batch; the bits set are [`trace_sample_per_ray`]'s (unit test).
 pub fn trace_sample(
+    vis: &dyn Visibility,
+    p: &PointSample,
+    s: &SampleSettings,
+    resolution: u32,
+    visible: &mut [u64],
+    occluded: &mut [u64],
+) -> u64 {
+    use crate::raybatch::{self, Block, MAX_RAYS};
+    let set = RaySet::new(p.normal, s.rays, p.rays.shift, s.rotate_about_normal);
+    if set.count as usize > MAX_RAYS {
+        return trace_sample_per_ray(vis, p, s, resolution, visible, occluded);
+    }
+    let mut block = Block::default();
+    raybatch::form(&set, p.normal, p.normal, resolution, raybatch::default_former(), &mut block);
+    let mut rays: Vec<(Ray, f32)> = Vec::with_capacity(set.count as usize);
+    let mut pixels: Vec<u32> = Vec::with_capacity(set.count as usize);
+    for (w, &bits) in block.used.iter().enumerate() {
+        let mut b = bits;
+        while b != 0 {
+            let k = w * 64 + b.trailing_zeros() as usize;
+            b &= b - 1;
+            rays.push((Ray::spawn(p.position, p.normal, block.direction(k)), f32::INFINITY));
+            pixels.push(block.pixel[k]);
+        }
+    }
+    let mut hits = vec![false; rays.len()];
+    vis.occluded_batch(&rays, &mut hits);
+    for (&pixel, &hit) in pixels.iter().zip(&hits) {
+        let word = if hit { &mut occluded[pixel as usize / 64] } else { &mut visible[pixel as usize / 64] };
+        *word |= 1 << (pixel % 64);
+    }
+    rays.len() as u64
+}
+
+/// [`trace_sample`] one ray at a time (the first version; kept as its reference).
+pub fn trace_sample_per_ray(
     vis: &dyn Visibility,
     p: &PointSample,
     s: &SampleSettings,

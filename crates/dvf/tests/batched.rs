@@ -257,3 +257,48 @@ fn radiance_replica_equals_environment_radiance() {
     println!("{compared} radiance lookups compared: {diffs} differ");
     assert_eq!(diffs, 0);
 }
+
+/// The build's batched `trace_sample` sets the same mask bits as the per-ray loop it replaced,
+/// for samples on every surface of `sky` and `cornell-lit`, both hemispheres, several ray counts.
+#[test]
+fn batched_build_samples_equal_per_ray_samples() {
+    use glimpse_dvf::field::{PointSample, RaySetKey, SampleSettings, trace_sample, trace_sample_per_ray};
+    use glimpse_dvf::points::PointSampling;
+    let (mut samples, mut differ, mut rays) = (0, 0, 0u64);
+    for scene_name in ["sky", "cornell-lit"] {
+        let scene = glimpse_scene::load(scene_name).unwrap();
+        let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+        let triangles = ctx.frame.world_triangles();
+        let mut rng = Rng::new(17, 3);
+        for n_rays in [128u32, 100, 37] {
+            let s = SampleSettings {
+                sampling: PointSampling::Hash,
+                rays: n_rays,
+                rotate_about_normal: false,
+                seed: 1,
+                frame_index: 0,
+                both_sides: false,
+            };
+            for _ in 0..300 {
+                let t = triangles[(rng.next_f32() * triangles.len() as f32) as usize % triangles.len()];
+                let (u, v) = (rng.next_f32(), rng.next_f32());
+                let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
+                let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y);
+                let normal = if rng.next_f32() < 0.5 { n } else { -n };
+                let p = PointSample {
+                    position: t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v,
+                    normal,
+                    rays: RaySetKey { shift: rng.next_2d() },
+                };
+                let (mut v1, mut o1, mut v2, mut o2) = ([0u64; 1], [0u64; 1], [0u64; 1], [0u64; 1]);
+                let a = trace_sample(&ctx.tracer, &p, &s, 8, &mut v1, &mut o1);
+                let b = trace_sample_per_ray(&ctx.tracer, &p, &s, 8, &mut v2, &mut o2);
+                samples += 1;
+                rays += b;
+                differ += ((a, v1, o1) != (b, v2, o2)) as usize;
+            }
+        }
+    }
+    println!("build samples: {samples} compared ({rays} rays), {differ} differ");
+    assert_eq!(differ, 0);
+}
