@@ -59,13 +59,33 @@ impl Camera {
     pub fn framing_from(bounds: Aabb, aspect: f32, dir: Vec3) -> Self {
         let fov_y = 45f32.to_radians();
         let center = bounds.center();
-        let radius = (bounds.extent().length() * 0.5).max(1e-3);
-        let half = (fov_y * 0.5).min((fov_y * 0.5).tan().atan2(1.0 / aspect.max(1e-3)).max(1e-3));
-        let distance = radius / half.sin();
         let dir = dir.normalize_or(Vec3::Z);
         // Straight up or down would make `up` parallel to the view direction.
-        let up = if dir.cross(Vec3::Y).length() < 1e-3 { Vec3::Z } else { Vec3::Y };
-        Self::vertical(center + dir * distance, center, up, fov_y)
+        let up_hint = if dir.cross(Vec3::Y).length() < 1e-3 { Vec3::Z } else { Vec3::Y };
+        let forward = -dir;
+        let right = forward.cross(up_hint).normalize();
+        let up = right.cross(forward);
+        // The nearest distance along `dir` at which every corner of the box lies in front of the
+        // camera and inside the image with a 10 % border: tight around the box, not around its
+        // bounding sphere (which left a compact object a sixth of the frame).
+        let tan_v = (fov_y * 0.5).tan() * 0.9;
+        let tan_h = tan_v * aspect.max(1e-3);
+        let mut distance = 1e-3f32;
+        for k in 0..8 {
+            let corner = Vec3::new(
+                if k & 1 == 0 { bounds.min.x } else { bounds.max.x },
+                if k & 2 == 0 { bounds.min.y } else { bounds.max.y },
+                if k & 4 == 0 { bounds.min.z } else { bounds.max.z },
+            );
+            let o = corner - center;
+            let (x, y, z) = (o.dot(right), o.dot(up), o.dot(forward));
+            // Depth of the corner: distance + z; in the image: |x| ≤ tan_h·depth, |y| ≤ tan_v·depth.
+            distance = distance.max(-z + 1e-3).max(x.abs() / tan_h - z).max(y.abs() / tan_v - z);
+        }
+        if !distance.is_finite() {
+            distance = (bounds.extent().length() * 0.5).max(1e-3) / (fov_y * 0.5).sin();
+        }
+        Self::vertical(center + dir * distance, center, up_hint, fov_y)
     }
 
     /// The primary ray through continuous pixel coordinates `(px, py)` of a `width × height` image.
@@ -101,11 +121,20 @@ mod tests {
         let b = Aabb::new(Vec3::new(-1.0, 0.0, -2.0), Vec3::new(3.0, 1.0, 0.5));
         let c = Camera::framing(b, 16.0 / 9.0);
         let forward = (c.target - c.position).normalize();
+        let right = forward.cross(c.up).normalize();
+        let up = right.cross(forward);
+        let tan_v = (c.fov * 0.5).tan();
+        let mut widest: f32 = 0.0;
         for i in 0..8 {
             let p = Vec3::new([b.min.x, b.max.x][i & 1], [b.min.y, b.max.y][(i >> 1) & 1], [b.min.z, b.max.z][i >> 2]);
-            let angle = forward.angle_between((p - c.position).normalize());
-            assert!(angle < c.fov * 0.5 + 1e-4, "corner {p} outside the view");
+            let o = p - c.position;
+            let depth = o.dot(forward);
+            let (x, y) = (o.dot(right) / (depth * tan_v * 16.0 / 9.0), o.dot(up) / (depth * tan_v));
+            assert!(depth > 0.0 && x.abs() <= 1.0 && y.abs() <= 1.0, "corner {p} outside the view ({x}, {y})");
+            widest = widest.max(x.abs()).max(y.abs());
         }
+        // Tight: some corner reaches the 10 % border.
+        assert!(widest > 0.85, "the box fills too little of the view: {widest}");
     }
 
     #[test]
