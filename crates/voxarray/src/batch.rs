@@ -31,6 +31,21 @@ use crate::row::Row;
 use crate::{Array, Rows};
 use glimpse_core::{Ray, Vec3};
 
+/// A row query of [`Array::occluded_rows`]: the row's index in the flat array and the clip.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct RowQuery {
+    pub row: usize,
+    pub s: u32,
+    pub e: u32,
+}
+
+impl RowQuery {
+    #[inline]
+    pub fn new(x: &Extent, n_res: u32) -> Self {
+        Self { row: x.row_index(n_res), s: x.s, e: x.e }
+    }
+}
+
 /// Segments answered together (one AVX2 register of `f32`, a GPU's quarter-warp).
 pub const LANES: usize = 8;
 
@@ -50,8 +65,48 @@ fn prefetch<T>(p: *const T) {
 impl<R: Row> Array<R> {
     /// `out[k] = self.occluded_segment(segments[k].0, segments[k].1)` for every `k`.
     pub fn occluded_segments(&self, segments: &[(Vec3, Vec3)], out: &mut [bool]) {
+        self.occluded_segments_with(segments, out, extent8::avx2_available());
+    }
+
+    /// [`Self::occluded_segments`] with the AVX2 pass 1 only if `simd` (and the CPU has it):
+    /// `false` runs the scalar extents (the same answers).
+    pub fn occluded_segments_with(&self, segments: &[(Vec3, Vec3)], out: &mut [bool], simd: bool) {
         assert_eq!(segments.len(), out.len(), "occluded_segments: one answer per segment");
-        self.occluded_lanes(segments, out, |&(a, b)| (a, b), |row, x| query::clip_hits(row, x.s, x.e));
+        self.occluded_lanes(segments, out, simd, |&(a, b)| (a, b), |row, x| query::clip_hits(row, x.s, x.e));
+    }
+
+    /// Passes 2 and 3 over a whole list of extents at once (the tiled shader's queries of one
+    /// light over a tile, [`crate::shade8`]): every row (or packed index word) prefetched, then
+    /// for a compressed array every dictionary row prefetched once its index is known, then the
+    /// rows loaded and clipped. Calls `occluded(k)` for each query `k` whose clipped row has a
+    /// set bit. `queries[k].row` is overwritten (by the dictionary entry, when compressed).
+    pub fn occluded_rows(&self, queries: &mut [RowQuery], mut occluded: impl FnMut(usize)) {
+        match &self.rows {
+            Rows::Plain(v) => {
+                for q in queries.iter() {
+                    prefetch(&v[q.row]);
+                }
+                for (k, q) in queries.iter().enumerate() {
+                    if query::clip_hits(v[q.row], q.s, q.e) {
+                        occluded(k);
+                    }
+                }
+            }
+            Rows::Compressed(c) => {
+                for q in queries.iter() {
+                    prefetch(c.index_word(q.row));
+                }
+                for q in queries.iter_mut() {
+                    q.row = c.index(q.row);
+                    prefetch(&c.dictionary[q.row]);
+                }
+                for (k, q) in queries.iter().enumerate() {
+                    if query::clip_hits(c.dictionary[q.row], q.s, q.e) {
+                        occluded(k);
+                    }
+                }
+            }
+        }
     }
 
     /// The batched form of the `Visibility` query (the ray's segment, the along-row bias and,
@@ -61,6 +116,7 @@ impl<R: Row> Array<R> {
         self.occluded_lanes(
             rays,
             out,
+            extent8::avx2_available(),
             |(ray, t_max)| self.segment(ray, *t_max),
             |row, x| {
                 if self.skip_start_run { query::clip_hits_after_start_run(row, x) } else { query::clip_hits(row, x.s, x.e) }
@@ -71,8 +127,14 @@ impl<R: Row> Array<R> {
     /// The three passes over lanes of `LANES` queries: every lane's extent (`segment` gives its
     /// world-space segment), then the rows fetched together, then `hits` per lane with an extent.
     #[inline]
-    fn occluded_lanes<T>(&self, queries: &[T], out: &mut [bool], segment: impl Fn(&T) -> (Vec3, Vec3), hits: impl Fn(R, &Extent) -> bool) {
-        let simd = extent8::avx2_available();
+    fn occluded_lanes<T>(
+        &self,
+        queries: &[T],
+        out: &mut [bool],
+        simd: bool,
+        segment: impl Fn(&T) -> (Vec3, Vec3),
+        hits: impl Fn(R, &Extent) -> bool,
+    ) {
         for (queries, out) in queries.chunks(LANES).zip(out.chunks_mut(LANES)) {
             let mut extents = [None; LANES];
             if simd && queries.len() == LANES {

@@ -16,11 +16,13 @@
 
 use crate::disk_cache;
 use crate::dynamic::{self, Instanced};
-use crate::{VoxArray, VoxArrayParams};
+use crate::row::Row;
+use crate::shade8::Tile;
+use crate::{Array, VoxArray, VoxArrayParams, extent8};
 use glimpse_core::{Image, Ray, Vec3};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
-use glimpse_scene::Scene;
+use glimpse_scene::{Scene, WorldLight};
 use glimpse_trace::{GBuffer, Visibility};
 
 use rayon::prelude::*;
@@ -56,12 +58,23 @@ impl Structure {
 
     /// `out[k] = self.occluded_from_surface(&samples[k].0, samples[k].1)`; a single array
     /// answers the batch with its row loads overlapped ([`crate::batch`]).
-    pub fn occluded_from_surfaces(&self, samples: &[(direct::PunctualSample, Vec3)], segments: &mut Vec<(Vec3, Vec3)>, out: &mut [bool]) {
+    /// `simd`: the AVX2 pass 1 of the batch (where the CPU has it); the answers are the same.
+    pub fn occluded_from_surfaces(
+        &self,
+        samples: &[(direct::PunctualSample, Vec3)],
+        segments: &mut Vec<(Vec3, Vec3)>,
+        out: &mut [bool],
+        simd: bool,
+    ) {
         match self {
             Structure::Static(a) | Structure::Deforming(a) => {
                 segments.clear();
                 segments.extend(samples.iter().map(|(ps, n)| a.surface_segment(ps, *n)));
-                a.occluded_segments(segments, out);
+                match a {
+                    VoxArray::R32(a) => a.occluded_segments_with(segments, out, simd),
+                    VoxArray::R64(a) => a.occluded_segments_with(segments, out, simd),
+                    VoxArray::R128(a) => a.occluded_segments_with(segments, out, simd),
+                }
             }
             Structure::Instanced(a) => {
                 for ((ps, n), o) in samples.iter().zip(out) {
@@ -92,6 +105,13 @@ pub struct LightsVoxArray {
     pub epsilon: bool,
     /// Load and store a static scene's compressed array in the disk cache (`disk_cache`).
     pub disk_cache: bool,
+    /// Shade with the tiled shader ([`crate::shade8`]: tile × light in structure-of-arrays
+    /// form); `false`: the per-sample path (each light's samples of a tile formed one by one,
+    /// then batched). The same image.
+    pub tiled: bool,
+    /// AVX2 where the CPU has it (segment formation, extents, sums); `false`, or
+    /// `GLIMPSE_VOXARRAY_SCALAR=1`, runs the scalar code. The same image.
+    pub simd: bool,
 }
 
 impl LightsVoxArray {
@@ -100,7 +120,7 @@ impl LightsVoxArray {
             id: "lights-voxarray",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon, disk_cache",
+            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, type_resolution, lights, epsilon, disk_cache, tiled, simd",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
@@ -128,6 +148,8 @@ impl LightsVoxArray {
             structure: None,
             epsilon: params.bool("epsilon", true)?,
             disk_cache: params.bool("disk_cache", true)?,
+            tiled: params.bool("tiled", true)?,
+            simd: params.bool("simd", true)?,
         })
     }
 }
@@ -205,54 +227,16 @@ impl Technique for LightsVoxArray {
         if (out.width, out.height) != (gbuffer.width, gbuffer.height) {
             return Err(RenderError::Unsupported { technique: "lights-voxarray".into(), message: "image and GBuffer sizes differ".into() });
         }
-        // Alg. 4, in tiles of PIXELS_PER_TILE consecutive pixels with the light loop outside:
-        // one light's queries from neighbouring pixels read the same voxelization and nearby
-        // rows, so the row loads hit the cache (a GPU gets the same from its warps).
-        stats.rays = stats.time("shade", || {
-            out.pixels
-                .par_chunks_mut(PIXELS_PER_TILE)
-                .enumerate()
-                .map(|(tile, px)| {
-                    let base = tile * PIXELS_PER_TILE;
-                    let shading: Vec<Option<Shading>> = (0..px.len()).map(|k| Shading::from_gbuffer(gbuffer, base + k)).collect();
-                    let mut e = vec![Vec3::ZERO; px.len()];
-                    let mut rays = 0u64;
-                    // Reused per light: the tile's shadow queries, their segments and answers.
-                    let (mut samples, mut pixel, mut segments, mut occluded) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-                    for light in lights {
-                        samples.clear();
-                        pixel.clear();
-                        for (k, s) in shading.iter().enumerate() {
-                            let Some(s) = s else { continue };
-                            let ps = direct::punctual(light, s.position, s.normal);
-                            let cos = s.cos(ps.wi);
-                            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                                continue;
-                            }
-                            samples.push((ps, s.normal));
-                            pixel.push((k, cos));
-                        }
-                        occluded.clear();
-                        occluded.resize(samples.len(), false);
-                        vis.occluded_from_surfaces(&samples, &mut segments, &mut occluded);
-                        rays += samples.len() as u64;
-                        for (((ps, _), &(k, cos)), &o) in samples.iter().zip(&pixel).zip(&occluded) {
-                            if !o {
-                                e[k] += ps.irradiance * cos;
-                            }
-                        }
-                    }
-                    for (k, p) in px.iter_mut().enumerate() {
-                        let i = base + k;
-                        *p = match &shading[k] {
-                            Some(s) => gbuffer.emission[i] + s.albedo / PI * e[k],
-                            None => direct::background(&ctx.frame, gbuffer.view_dir[i]),
-                        };
-                    }
-                    ctx.progress.add(px.len() as u64);
-                    rays
-                })
-                .sum()
+        let simd = self.simd && extent8::avx2_available();
+        let tiled = match vis {
+            Structure::Static(a) | Structure::Deforming(a) if self.tiled => Some(a),
+            _ => None,
+        };
+        stats.rays = stats.time("shade", || match tiled {
+            Some(VoxArray::R32(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd),
+            Some(VoxArray::R64(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd),
+            Some(VoxArray::R128(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd),
+            None => shade_samples(vis, ctx, gbuffer, lights, out, simd),
         });
         if self.epsilon {
             let e =
@@ -261,4 +245,82 @@ impl Technique for LightsVoxArray {
         }
         Ok(stats)
     }
+}
+
+/// Alg. 4 with the tiled shader ([`crate::shade8`]): tiles of [`PIXELS_PER_TILE`] consecutive
+/// pixels with the light loop outside (one light's queries from neighbouring pixels read the
+/// same voxelization and nearby rows), each tile × light formed in structure-of-arrays form and
+/// its row loads issued together. Returns the shadow decisions made.
+fn shade_tiled<R: Row>(array: &Array<R>, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, simd: bool) -> u64 {
+    out.pixels
+        .par_chunks_mut(PIXELS_PER_TILE)
+        .enumerate()
+        .map_init(Tile::default, |tile, (t, px)| {
+            let base = t * PIXELS_PER_TILE;
+            tile.load(gbuffer, base, px.len());
+            let mut rays = 0u64;
+            for light in lights {
+                rays += tile.shade_light(array, light, simd);
+            }
+            for (k, p) in px.iter_mut().enumerate() {
+                *p = direct::background(&ctx.frame, gbuffer.view_dir[base + k]);
+            }
+            for (k, s, e) in tile.results() {
+                px[k] = gbuffer.emission[base + k] + s.albedo / PI * e;
+            }
+            ctx.progress.add(px.len() as u64);
+            rays
+        })
+        .sum()
+}
+
+/// Alg. 4 sample by sample (the path before [`crate::shade8`], kept as its reference): in
+/// tiles of [`PIXELS_PER_TILE`] consecutive pixels with the light loop outside, one light's
+/// samples of a tile formed one by one and their queries batched ([`crate::batch`]). Returns the
+/// shadow decisions made.
+fn shade_samples(vis: &Structure, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, simd: bool) -> u64 {
+    out.pixels
+        .par_chunks_mut(PIXELS_PER_TILE)
+        .enumerate()
+        .map(|(tile, px)| {
+            let base = tile * PIXELS_PER_TILE;
+            let shading: Vec<Option<Shading>> = (0..px.len()).map(|k| Shading::from_gbuffer(gbuffer, base + k)).collect();
+            let mut e = vec![Vec3::ZERO; px.len()];
+            let mut rays = 0u64;
+            // Reused per light: the tile's shadow queries, their segments and answers.
+            let (mut samples, mut pixel, mut segments, mut occluded) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+            for light in lights {
+                samples.clear();
+                pixel.clear();
+                for (k, s) in shading.iter().enumerate() {
+                    let Some(s) = s else { continue };
+                    let ps = direct::punctual(light, s.position, s.normal);
+                    let cos = s.cos(ps.wi);
+                    if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                        continue;
+                    }
+                    samples.push((ps, s.normal));
+                    pixel.push((k, cos));
+                }
+                occluded.clear();
+                occluded.resize(samples.len(), false);
+                vis.occluded_from_surfaces(&samples, &mut segments, &mut occluded, simd);
+                rays += samples.len() as u64;
+                for (((ps, _), &(k, cos)), &o) in samples.iter().zip(&pixel).zip(&occluded) {
+                    if !o {
+                        e[k] += ps.irradiance * cos;
+                    }
+                }
+            }
+            for (k, p) in px.iter_mut().enumerate() {
+                let i = base + k;
+                *p = match &shading[k] {
+                    Some(s) => gbuffer.emission[i] + s.albedo / PI * e[k],
+                    None => direct::background(&ctx.frame, gbuffer.view_dir[i]),
+                };
+            }
+            ctx.progress.add(px.len() as u64);
+            rays
+        })
+        .sum()
 }
