@@ -24,17 +24,6 @@ use glimpse_render::direct::{self, Shading};
 use glimpse_scene::{LightKind, WorldLight};
 use glimpse_trace::GBuffer;
 
-/// The shadow segments of eight lanes (structure of arrays) and which lanes need a query.
-#[derive(Clone, Copy, Debug, Default)]
-struct Lanes {
-    start: [[f32; LANES]; 3],
-    end: [[f32; LANES]; 3],
-    /// Irradiance × cosine of each lane (added where the light is not occluded).
-    contrib: [[f32; LANES]; 3],
-    /// Bit `k`: lane `k` faces the light with some irradiance (a shadow decision is made).
-    active: u32,
-}
-
 /// Per-thread buffers of one tile, reused from tile to tile.
 #[derive(Default)]
 pub struct Tile {
@@ -48,10 +37,17 @@ pub struct Tile {
     sn: [Vec<f32>; 3],
     /// The irradiance summed over the lights so far, by component.
     e: [Vec<f32>; 3],
-    /// Per group of [`LANES`] slots: the lanes' segments and contributions for the current light.
-    lanes: Vec<Lanes>,
-    /// Per group: lanes that receive the current light (active and not occluded).
+    /// The current light's irradiance × cosine at each slot (added where not occluded).
+    contrib: [Vec<f32>; 3],
+    /// Per group of [`LANES`] slots: the lanes that receive the current light (they face it
+    /// with some irradiance and are not occluded).
     visible: Vec<u32>,
+    /// The current light's shadow segments of the slots that face it, packed: start x, y, z,
+    /// end x, y, z (pass 1 then runs on full lanes).
+    seg: [Vec<f32>; 6],
+    /// Slot of each packed segment.
+    seg_slot: Vec<u32>,
+    segs: usize,
     queries: Vec<RowQuery>,
     /// Slot of each query.
     query_slot: Vec<u32>,
@@ -86,71 +82,96 @@ impl Tile {
             }
             self.e[c].clear();
             self.e[c].resize(slots, 0.0);
+            self.contrib[c].resize(slots, 0.0);
         }
-        self.lanes.clear();
-        self.lanes.resize(slots / LANES, Lanes::default());
+        for v in &mut self.seg {
+            v.resize(slots + LANES, 0.0);
+        }
+        self.seg_slot.resize(slots + LANES, 0);
         self.visible.clear();
         self.visible.resize(slots / LANES, 0);
     }
 
-    /// Hit pixels of the tile: `(pixel within the tile, shading, summed irradiance)`.
+    /// Hit pixels of the tile: `(pixel within the tile, shading, summed irradiance)`, by pixel.
     pub fn results(&self) -> impl Iterator<Item = (usize, &Shading, Vec3)> + '_ {
         (0..self.hits).map(|i| (self.pixel[i], &self.shading[i], Vec3::new(self.e[0][i], self.e[1][i], self.e[2][i])))
     }
 
     /// Adds `light`'s unoccluded Lambertian term to every hit pixel of the tile; returns the
-    /// shadow decisions made (the lights that face the pixel with some irradiance).
+    /// shadow decisions made (the pixels that face the light with some irradiance).
     pub fn shade_light<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, simd: bool) -> u64 {
-        let groups = self.lanes.len();
-        let far = 0.87 * array.grid.resolution as f32 / array.grid.scale;
-        let offset = array.normal_offset_cells / array.grid.scale;
-        self.queries.clear();
-        self.query_slot.clear();
+        let simd = simd && extent8::avx2_available();
         let mut decisions = 0u64;
-        for g in 0..groups {
+        // The facing test, the contributions and the packed segments, group by group.
+        self.segs = 0;
+        for g in 0..self.visible.len() {
             let real = lane_mask(self.hits.saturating_sub(g * LANES));
-            let at = g * LANES..(g + 1) * LANES;
             #[cfg(target_arch = "x86_64")]
-            if simd && extent8::avx2_available() {
-                // SAFETY: AVX2 was detected on this CPU; the slices hold LANES floats.
-                let formed = unsafe {
-                    avx2::form_point(light, soa(&self.p, &at), soa(&self.n, &at), soa(&self.sn, &at), array.grid.center, far, offset)
-                };
-                let lanes = formed.unwrap_or_else(|| form_scalar(array, light, &self.shading[at.clone()]));
-                let active = lanes.active & real;
-                // SAFETY: as above.
-                let raw = unsafe { avx2::extents(array, &lanes) };
-                self.push_group(g, lanes, active, |k| raw.extent(k), R::BITS);
-                decisions += active.count_ones() as u64;
-                continue;
+            if simd {
+                // SAFETY: AVX2 was detected on this CPU.
+                if let Some(active) = unsafe { avx2::form(self, array, light, g, real) } {
+                    self.visible[g] = active;
+                    decisions += active.count_ones() as u64;
+                    continue;
+                }
             }
-            let lanes = form_scalar(array, light, &self.shading[at]);
-            let active = lanes.active & real;
-            let extent = |k: usize| {
-                let v = |x: &[[f32; LANES]; 3]| Vec3::new(x[0][k], x[1][k], x[2][k]);
-                query::extent(&array.grid, &array.dirs, v(&lanes.start), v(&lanes.end), array.bias_start_cells, array.bias_end_cells)
-            };
-            self.push_group(g, lanes, active, extent, R::BITS);
+            let active = self.form_scalar(array, light, g, real);
+            self.visible[g] = active;
             decisions += active.count_ones() as u64;
         }
+        // Pass 1 on the packed segments: the extents, the row queries of the valid ones (a
+        // segment that covers no voxel is unoccluded).
+        self.queries.clear();
+        self.query_slot.clear();
+        for at in (0..self.segs).step_by(LANES) {
+            let lanes = lane_mask(self.segs - at);
+            #[cfg(target_arch = "x86_64")]
+            if simd {
+                // SAFETY: AVX2 was detected on this CPU.
+                let raw = unsafe { avx2::extents(array, &self.seg, at) };
+                let mut bits = raw.valid & lanes;
+                while bits != 0 {
+                    let k = bits.trailing_zeros() as usize;
+                    bits &= bits - 1;
+                    if let Some(x) = raw.extent(k) {
+                        self.queries.push(RowQuery::new(&x, R::BITS));
+                        self.query_slot.push(self.seg_slot[at + k]);
+                    }
+                }
+                continue;
+            }
+            for k in 0..LANES {
+                if lanes >> k & 1 == 0 {
+                    continue;
+                }
+                let v = |c: usize| Vec3::new(self.seg[c][at + k], self.seg[c + 1][at + k], self.seg[c + 2][at + k]);
+                if let Some(x) = query::extent(&array.grid, &array.dirs, v(0), v(3), array.bias_start_cells, array.bias_end_cells) {
+                    self.queries.push(RowQuery::new(&x, R::BITS));
+                    self.query_slot.push(self.seg_slot[at + k]);
+                }
+            }
+        }
+        // Passes 2 and 3: every row load of the tile × light in flight together.
         let (visible, slots) = (&mut self.visible, &self.query_slot);
         array.occluded_rows(&mut self.queries, |q| {
             let slot = slots[q] as usize;
             visible[slot / LANES] &= !(1 << (slot % LANES));
         });
-        for (g, (lanes, &visible)) in self.lanes.iter().zip(&self.visible).enumerate() {
+        // The Lambertian sum.
+        for (g, &visible) in self.visible.iter().enumerate() {
+            if visible == 0 {
+                continue;
+            }
             #[cfg(target_arch = "x86_64")]
-            if simd && extent8::avx2_available() {
-                let at = g * LANES..(g + 1) * LANES;
-                let [ex, ey, ez] = &mut self.e;
-                // SAFETY: AVX2 was detected on this CPU; the slices hold LANES floats.
-                unsafe { avx2::accumulate([&mut ex[at.clone()], &mut ey[at.clone()], &mut ez[at]], &lanes.contrib, visible) };
+            if simd {
+                // SAFETY: AVX2 was detected on this CPU.
+                unsafe { avx2::accumulate(&mut self.e, &self.contrib, g * LANES, visible) };
                 continue;
             }
             for k in 0..LANES {
                 if visible >> k & 1 != 0 {
                     for c in 0..3 {
-                        self.e[c][g * LANES + k] += lanes.contrib[c][k];
+                        self.e[c][g * LANES + k] += self.contrib[c][g * LANES + k];
                     }
                 }
             }
@@ -158,28 +179,35 @@ impl Tile {
         decisions
     }
 
-    /// Records group `g`'s lanes: the active lanes with an extent become row queries, the
-    /// active lanes without one (the segment covers no voxel) are unoccluded.
-    #[inline]
-    fn push_group(&mut self, g: usize, lanes: Lanes, active: u32, extent: impl Fn(usize) -> Option<query::Extent>, n_res: u32) {
-        let mut bits = active;
-        while bits != 0 {
-            let k = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            if let Some(x) = extent(k) {
-                self.queries.push(RowQuery::new(&x, n_res));
-                self.query_slot.push((g * LANES + k) as u32);
+    /// The per-sample path's code for the real lanes of group `g`, lane by lane:
+    /// `direct::punctual`, the facing test, the contribution and [`Array::surface_segment`].
+    /// Returns the lanes that face the light.
+    fn form_scalar<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, g: usize, real: u32) -> u32 {
+        let mut active = 0;
+        for k in 0..LANES {
+            if real >> k & 1 == 0 {
+                continue;
             }
+            let slot = g * LANES + k;
+            let s = &self.shading[slot];
+            let ps = direct::punctual(light, s.position, s.normal);
+            let cos = s.cos(ps.wi);
+            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                continue;
+            }
+            active |= 1 << k;
+            let c = ps.irradiance * cos;
+            let (a, b) = array.surface_segment(&ps, s.normal);
+            for (i, ((a, b), c)) in a.to_array().into_iter().zip(b.to_array()).zip(c.to_array()).enumerate() {
+                self.seg[i][self.segs] = a;
+                self.seg[i + 3][self.segs] = b;
+                self.contrib[i][slot] = c;
+            }
+            self.seg_slot[self.segs] = slot as u32;
+            self.segs += 1;
         }
-        self.visible[g] = active;
-        self.lanes[g] = lanes;
+        active
     }
-}
-
-/// Slots `at` of the three components.
-#[inline]
-fn soa<'a>(v: &'a [Vec<f32>; 3], at: &std::ops::Range<usize>) -> [&'a [f32]; 3] {
-    [&v[0][at.clone()], &v[1][at.clone()], &v[2][at.clone()]]
 }
 
 /// Bits `0..n.min(LANES)`.
@@ -188,27 +216,24 @@ fn lane_mask(n: usize) -> u32 {
     if n >= LANES { (1 << LANES) - 1 } else { (1 << n) - 1 }
 }
 
-/// The per-sample path's code, lane by lane: `direct::punctual`, the facing test and
-/// [`Array::surface_segment`].
-fn form_scalar<R: Row>(array: &Array<R>, light: &WorldLight, shading: &[Shading]) -> Lanes {
-    let mut lanes = Lanes::default();
-    for (k, s) in shading.iter().enumerate() {
-        let ps = direct::punctual(light, s.position, s.normal);
-        let cos = s.cos(ps.wi);
-        if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-            continue;
+/// `PACK[m]`: the lanes set in the mask `m`, in order, then zeros (a left-pack permutation).
+#[cfg(target_arch = "x86_64")]
+const PACK: [[i32; LANES]; 1 << LANES] = {
+    let mut t = [[0; LANES]; 1 << LANES];
+    let mut m = 0;
+    while m < 1 << LANES {
+        let (mut k, mut n) = (0, 0);
+        while k < LANES {
+            if m >> k & 1 != 0 {
+                t[m][n] = k as i32;
+                n += 1;
+            }
+            k += 1;
         }
-        lanes.active |= 1 << k;
-        let c = ps.irradiance * cos;
-        let (a, b) = array.surface_segment(&ps, s.normal);
-        for (i, ((a, b), c)) in a.to_array().into_iter().zip(b.to_array()).zip(c.to_array()).enumerate() {
-            lanes.start[i][k] = a;
-            lanes.end[i][k] = b;
-            lanes.contrib[i][k] = c;
-        }
+        m += 1;
     }
-    lanes
-}
+    t
+};
 
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
@@ -226,9 +251,17 @@ mod avx2 {
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn store(x: &mut [f32; LANES], v: V) {
+    fn store(x: &mut [f32], v: V) {
+        assert!(x.len() >= LANES);
         // SAFETY: eight floats are writable at `x`.
         unsafe { _mm256_storeu_ps(x.as_mut_ptr(), v) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn load_i(x: &[i32; LANES]) -> __m256i {
+        // SAFETY: eight i32s are readable at `x`.
+        unsafe { _mm256_loadu_si256(x.as_ptr() as *const __m256i) }
     }
 
     /// glam's `Vec3::dot`: `(x·x' + y·y') + z·z'`.
@@ -252,52 +285,47 @@ mod avx2 {
         a.map(|x| select(mask, neg(x), x))
     }
 
-    /// The segments, contributions and active lanes of a point light at eight surface points
-    /// (`p`, geometric normal `n`, shading normal `sn`), or `None` if the light is not a point
-    /// light or a lane's distance is not finite (the caller then runs [`form_scalar`]).
-    /// `far` is [`Array::segment`]'s `0.87 · N / scale`, `offset` the normal offset in world units.
+    /// Group `g` of a point light: the facing test and irradiance of its eight slots, their
+    /// contributions, and the shadow segments of the active ones appended to the packed list.
+    /// Returns the active lanes (within `real`), or `None` if the light is not a point light or
+    /// a lane's distance is not finite (the caller then runs the scalar formation).
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[target_feature(enable = "avx2")]
-    pub unsafe fn form_point(
-        light: &WorldLight,
-        p: [&[f32]; 3],
-        n: [&[f32]; 3],
-        sn: [&[f32]; 3],
-        center: Vec3,
-        far: f32,
-        offset: f32,
-    ) -> Option<Lanes> {
+    pub unsafe fn form<R: Row>(tile: &mut Tile, array: &Array<R>, light: &WorldLight, g: usize, real: u32) -> Option<u32> {
         if light.kind != LightKind::Point {
             return None;
         }
+        let at = g * LANES;
         let zero = _mm256_setzero_ps();
-        let p = p.map(|x| load(x));
-        let n = n.map(|x| load(x));
-        let sn = sn.map(|x| load(x));
+        let p = [0, 1, 2].map(|c| load(&tile.p[c][at..]));
+        let n = [0, 1, 2].map(|c| load(&tile.n[c][at..]));
         let lp = [splat(light.position.x), splat(light.position.y), splat(light.position.z)];
         // `WorldLight::incident`: to = L − p, d² = max(|to|², 1e-12), d = √d², wi = to / d, E = I / d².
-        let to = [_mm256_sub_ps(lp[0], p[0]), _mm256_sub_ps(lp[1], p[1]), _mm256_sub_ps(lp[2], p[2])];
+        let to = [0, 1, 2].map(|c| _mm256_sub_ps(lp[c], p[c]));
         let d2 = rmax(dot(to, to), splat(1e-12));
         let d = _mm256_sqrt_ps(d2);
         // `direct::punctual` takes the segment branch where d is finite: here, every lane.
-        let finite = _mm256_cmp_ps::<_CMP_LT_OQ>(abs(d), splat(f32::INFINITY));
-        if _mm256_movemask_ps(finite) != 0xff {
+        if _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(abs(d), splat(f32::INFINITY))) != 0xff {
             return None;
         }
         let wi = to.map(|x| _mm256_div_ps(x, d));
-        let irr = [
-            _mm256_div_ps(splat(light.intensity.x), d2),
-            _mm256_div_ps(splat(light.intensity.y), d2),
-            _mm256_div_ps(splat(light.intensity.z), d2),
-        ];
-        // `Shading::cos`: 0 where n·wi ≤ 0, else max(sn·wi, 0).
+        let irr = [light.intensity.x, light.intensity.y, light.intensity.z].map(|i| _mm256_div_ps(splat(i), d2));
+        // `Shading::cos`: 0 where n·wi ≤ 0, else max(sn·wi, 0); no decision where it is 0 or
+        // the irradiance's largest component is not positive.
+        let sn = [0, 1, 2].map(|c| load(&tile.sn[c][at..]));
         let cos = select(_mm256_cmp_ps::<_CMP_LE_OQ>(dot(n, wi), zero), zero, rmax(dot(sn, wi), zero));
         let skip = _mm256_or_ps(_mm256_cmp_ps::<_CMP_LE_OQ>(cos, zero), _mm256_cmp_ps::<_CMP_LE_OQ>(max_element(irr), zero));
-        let active = (!_mm256_movemask_ps(skip) as u32) & 0xff;
+        let active = !(_mm256_movemask_ps(skip) as u32) & real;
+        if active == 0 {
+            return Some(0);
+        }
+        for (dst, irr) in tile.contrib.iter_mut().zip(irr) {
+            store(&mut dst[at..], _mm256_mul_ps(irr, cos));
+        }
         // `direct::segment(p, n, L)`: `Ray::spawn(p, n, L − p).origin`, then the unit direction
-        // and length to L.
+        // and the length to L.
         let n1 = flip(_mm256_cmp_ps::<_CMP_LT_OQ>(dot(n, to), zero), n);
         let scale = rmax(max_element(p.map(|x| abs(x))), splat(1.0));
         let k = _mm256_mul_ps(splat(1e-4), scale);
@@ -306,52 +334,58 @@ mod avx2 {
         let len = _mm256_sqrt_ps(dot(to2, to2));
         let div = rmax(len, splat(f32::MIN_POSITIVE));
         let dir = to2.map(|x| _mm256_div_ps(x, div));
-        // `Array::segment`: the end at min(t_max, |origin − centre| + far) along the ray.
-        let oc = [0, 1, 2].map(|c| _mm256_sub_ps(origin[c], splat(center.to_array()[c])));
-        let t = rmin(len, _mm256_add_ps(_mm256_sqrt_ps(dot(oc, oc)), splat(far)));
+        // `Array::segment`: the end at min(t_max, |origin − centre| + 0.87·N/scale) along the ray.
+        let center = array.grid.center.to_array();
+        let oc = [0, 1, 2].map(|c| _mm256_sub_ps(origin[c], splat(center[c])));
+        let far = splat(0.87 * array.grid.resolution as f32 / array.grid.scale);
+        let t = rmin(len, _mm256_add_ps(_mm256_sqrt_ps(dot(oc, oc)), far));
         let end = [0, 1, 2].map(|c| _mm256_add_ps(origin[c], _mm256_mul_ps(dir[c], t)));
         // `Array::surface_segment`: the start moved along the normal, on the ray's side.
         let n2 = flip(_mm256_cmp_ps::<_CMP_LT_OQ>(dot(n, dir), zero), n);
-        let start = [0, 1, 2].map(|c| _mm256_add_ps(origin[c], _mm256_mul_ps(n2[c], splat(offset))));
-        let mut lanes = Lanes { active, ..Lanes::default() };
+        let offset = splat(array.normal_offset_cells / array.grid.scale);
+        let start = [0, 1, 2].map(|c| _mm256_add_ps(origin[c], _mm256_mul_ps(n2[c], offset)));
+        // Append the active lanes, left-packed.
+        let pack = load_i(&PACK[active as usize]);
+        let m = tile.segs;
         for c in 0..3 {
-            store(&mut lanes.start[c], start[c]);
-            store(&mut lanes.end[c], end[c]);
-            store(&mut lanes.contrib[c], _mm256_mul_ps(irr[c], cos));
+            store(&mut tile.seg[c][m..], _mm256_permutevar8x32_ps(start[c], pack));
+            store(&mut tile.seg[c + 3][m..], _mm256_permutevar8x32_ps(end[c], pack));
         }
-        Some(lanes)
+        let slots = _mm256_add_epi32(_mm256_set1_epi32(at as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        let packed = _mm256_permutevar8x32_epi32(slots, pack);
+        let out = &mut tile.seg_slot[m..m + LANES];
+        // SAFETY: eight u32s are writable at `out`.
+        unsafe { _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, packed) };
+        tile.segs += active.count_ones() as usize;
+        Some(active)
     }
 
-    /// The extents of the eight segments of `lanes` ([`extents_raw`]).
+    /// The extents of the packed segments `at..at + LANES` ([`extents_raw`]).
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub unsafe fn extents<R: Row>(array: &Array<R>, lanes: &Lanes) -> Raw {
-        let s = [0, 1, 2].map(|c| load(&lanes.start[c]));
-        let e = [0, 1, 2].map(|c| load(&lanes.end[c]));
+    pub unsafe fn extents<R: Row>(array: &Array<R>, seg: &[Vec<f32>; 6], at: usize) -> Raw {
+        let v = |c: usize| load(&seg[c][at..]);
         // SAFETY: the caller's.
         unsafe {
-            extents_raw(&array.grid, &array.dirs, (s[0], s[1], s[2]), (e[0], e[1], e[2]), array.bias_start_cells, array.bias_end_cells)
+            extents_raw(&array.grid, &array.dirs, (v(0), v(1), v(2)), (v(3), v(4), v(5)), array.bias_start_cells, array.bias_end_cells)
         }
     }
 
-    /// `e[c][k] += contrib[c][k]` for the lanes `k` set in `visible`.
+    /// `e[c][at + k] += contrib[c][at + k]` for the lanes `k` set in `visible`.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub unsafe fn accumulate(e: [&mut [f32]; 3], contrib: &[[f32; LANES]; 3], visible: u32) {
+    pub unsafe fn accumulate(e: &mut [Vec<f32>; 3], contrib: &[Vec<f32>; 3], at: usize, visible: u32) {
         let bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
         let mask = _mm256_castsi256_ps(_mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(visible as i32), bits), bits));
-        for (e, c) in e.into_iter().zip(contrib) {
-            let x = load(e);
-            let sum = select(mask, _mm256_add_ps(x, load(c)), x);
-            assert!(e.len() >= LANES);
-            // SAFETY: eight floats are writable at `e`.
-            unsafe { _mm256_storeu_ps(e.as_mut_ptr(), sum) }
+        for (e, c) in e.iter_mut().zip(contrib) {
+            let x = load(&e[at..]);
+            store(&mut e[at..], select(mask, _mm256_add_ps(x, load(&c[at..])), x));
         }
     }
 }

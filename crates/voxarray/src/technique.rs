@@ -262,11 +262,12 @@ fn shade_tiled<R: Row>(array: &Array<R>, ctx: &FrameContext, gbuffer: &GBuffer, 
             for light in lights {
                 rays += tile.shade_light(array, light, simd);
             }
+            let mut hits = tile.results().peekable();
             for (k, p) in px.iter_mut().enumerate() {
-                *p = direct::background(&ctx.frame, gbuffer.view_dir[base + k]);
-            }
-            for (k, s, e) in tile.results() {
-                px[k] = gbuffer.emission[base + k] + s.albedo / PI * e;
+                *p = match hits.next_if(|h| h.0 == k) {
+                    Some((_, s, e)) => gbuffer.emission[base + k] + s.albedo / PI * e,
+                    None => direct::background(&ctx.frame, gbuffer.view_dir[base + k]),
+                };
             }
             ctx.progress.add(px.len() as u64);
             rays
