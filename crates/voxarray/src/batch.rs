@@ -31,21 +31,6 @@ use crate::row::Row;
 use crate::{Array, Rows};
 use glimpse_core::{Ray, Vec3};
 
-/// A row query of [`Array::occluded_rows`]: the row's index in the flat array and the clip.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RowQuery {
-    pub row: usize,
-    pub s: u32,
-    pub e: u32,
-}
-
-impl RowQuery {
-    #[inline]
-    pub fn new(x: &Extent, n_res: u32) -> Self {
-        Self { row: x.row_index(n_res), s: x.s, e: x.e }
-    }
-}
-
 /// Segments answered together (one AVX2 register of `f32`, a GPU's quarter-warp).
 pub const LANES: usize = 8;
 
@@ -75,33 +60,37 @@ impl<R: Row> Array<R> {
         self.occluded_lanes(segments, out, simd, |&(a, b)| (a, b), |row, x| query::clip_hits(row, x.s, x.e));
     }
 
-    /// Passes 2 and 3 over a whole list of extents at once (the tiled shader's queries of one
-    /// light over a tile, [`crate::shade8`]): every row (or packed index word) prefetched, then
-    /// for a compressed array every dictionary row prefetched once its index is known, then the
-    /// rows loaded and clipped. Calls `occluded(k)` for each query `k` whose clipped row has a
-    /// set bit. `queries[k].row` is overwritten (by the dictionary entry, when compressed).
-    pub fn occluded_rows(&self, queries: &mut [RowQuery], mut occluded: impl FnMut(usize)) {
+    /// Passes 2 and 3 over a whole list of row queries at once (the tiled shader's queries of
+    /// one light over a tile, [`crate::shade8`]): query `k` reads row `rows[k]` (an index into
+    /// the flat row array, as [`Extent::row_index`]) clipped to `s[k]..=e[k]`. Every row (or
+    /// packed index word) is prefetched, then for a compressed array every dictionary row once
+    /// its index is known, then the rows are loaded and clipped. Calls `occluded(k)` for each
+    /// query whose clipped row has a set bit. `rows` is overwritten (by the dictionary entries,
+    /// when compressed).
+    pub fn occluded_rows(&self, rows: &mut [u32], s: &[u32], e: &[u32], mut occluded: impl FnMut(usize)) {
+        assert!(rows.len() == s.len() && rows.len() == e.len(), "occluded_rows: one clip per row");
         match &self.rows {
             Rows::Plain(v) => {
-                for q in queries.iter() {
-                    prefetch(&v[q.row]);
+                for &r in rows.iter() {
+                    prefetch(&v[r as usize]);
                 }
-                for (k, q) in queries.iter().enumerate() {
-                    if query::clip_hits(v[q.row], q.s, q.e) {
+                for (k, &r) in rows.iter().enumerate() {
+                    if query::clip_hits(v[r as usize], s[k], e[k]) {
                         occluded(k);
                     }
                 }
             }
             Rows::Compressed(c) => {
-                for q in queries.iter() {
-                    prefetch(c.index_word(q.row));
+                for &r in rows.iter() {
+                    prefetch(c.index_word(r as usize));
                 }
-                for q in queries.iter_mut() {
-                    q.row = c.index(q.row);
-                    prefetch(&c.dictionary[q.row]);
+                for r in rows.iter_mut() {
+                    let entry = c.index(*r as usize);
+                    prefetch(&c.dictionary[entry]);
+                    *r = entry as u32;
                 }
-                for (k, q) in queries.iter().enumerate() {
-                    if query::clip_hits(c.dictionary[q.row], q.s, q.e) {
+                for (k, &r) in rows.iter().enumerate() {
+                    if query::clip_hits(c.dictionary[r as usize], s[k], e[k]) {
                         occluded(k);
                     }
                 }

@@ -238,11 +238,57 @@ pub(crate) mod avx2 {
     pub unsafe fn extents_raw(
         grid: &Grid,
         dirs: &Directions,
+        start: (V, V, V),
+        end: (V, V, V),
+        bias_start_cells: f32,
+        bias_end_cells: f32,
+    ) -> Raw {
+        let r = unsafe { extents_regs(grid, dirs, start, end, bias_start_cells, bias_end_cells) };
+        let mut raw = Raw {
+            voxelization: [0; LANES],
+            x: [0; LANES],
+            y: [0; LANES],
+            s: [0; LANES],
+            e: [0; LANES],
+            valid: r.valid,
+            start_low: r.start_low,
+        };
+        let store = |o: &mut [u32; LANES], v: __m256i| unsafe { _mm256_storeu_si256(o.as_mut_ptr() as *mut __m256i, v) };
+        store(&mut raw.voxelization, r.voxelization);
+        store(&mut raw.x, r.x);
+        store(&mut raw.y, r.y);
+        store(&mut raw.s, r.s);
+        store(&mut raw.e, r.e);
+        raw
+    }
+
+    /// Eight extents in registers: the fields of [`Extent`] as `u32` lanes, `valid` and
+    /// `start_low` as bit masks. Lanes not in `valid` hold garbage.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Regs {
+        pub voxelization: __m256i,
+        pub x: __m256i,
+        pub y: __m256i,
+        pub s: __m256i,
+        pub e: __m256i,
+        pub valid: u32,
+        pub start_low: u32,
+    }
+
+    /// [`extents_raw`], left in registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn extents_regs(
+        grid: &Grid,
+        dirs: &Directions,
         (sx, sy, sz): (V, V, V),
         (ex, ey, ez): (V, V, V),
         bias_start_cells: f32,
         bias_end_cells: f32,
-    ) -> Raw {
+    ) -> Regs {
         // The table is gathered as flat f32s: (f32, f32) has no guaranteed layout, so read it.
         const {
             assert!(std::mem::size_of::<(f32, f32)>() == 8);
@@ -322,15 +368,15 @@ pub(crate) mod avx2 {
             let valid = _mm256_movemask_ps(_mm256_andnot_ps(bad, inside)) as u32;
             let low = _mm256_movemask_ps(low) as u32;
 
-            let mut raw =
-                Raw { voxelization: [0; LANES], x: [0; LANES], y: [0; LANES], s: [0; LANES], e: [0; LANES], valid, start_low: low };
-            let store = |o: &mut [u32; LANES], v: __m256i| _mm256_storeu_si256(o.as_mut_ptr() as *mut __m256i, v);
-            store(&mut raw.voxelization, _mm256_add_epi32(_mm256_mullo_epi32(i, nv), j));
-            store(&mut raw.x, _mm256_cvttps_epi32(mx));
-            store(&mut raw.y, _mm256_cvttps_epi32(my));
-            store(&mut raw.s, _mm256_cvttps_epi32(lo));
-            store(&mut raw.e, _mm256_cvttps_epi32(hi));
-            raw
+            Regs {
+                voxelization: _mm256_add_epi32(_mm256_mullo_epi32(i, nv), j),
+                x: _mm256_cvttps_epi32(mx),
+                y: _mm256_cvttps_epi32(my),
+                s: _mm256_cvttps_epi32(lo),
+                e: _mm256_cvttps_epi32(hi),
+                valid,
+                start_low: low,
+            }
         }
     }
 }

@@ -15,7 +15,7 @@
 //! (and a group with a non-finite distance) form their segments with the scalar code, lane by
 //! lane, and still share the rest. Without AVX2 (or with `simd` off) every lane is scalar.
 
-use crate::batch::{LANES, RowQuery};
+use crate::batch::LANES;
 use crate::query;
 use crate::row::Row;
 use crate::{Array, extent8};
@@ -48,9 +48,13 @@ pub struct Tile {
     /// Slot of each packed segment.
     seg_slot: Vec<u32>,
     segs: usize,
-    queries: Vec<RowQuery>,
-    /// Slot of each query.
-    query_slot: Vec<u32>,
+    /// The current light's row queries: row index ([`crate::query::Extent::row_index`]), clip
+    /// and slot, `queries` of them (`LANES` spare at the end).
+    q_row: Vec<u32>,
+    q_s: Vec<u32>,
+    q_e: Vec<u32>,
+    q_slot: Vec<u32>,
+    queries: usize,
     /// Hit pixels (slots before the padding).
     hits: usize,
 }
@@ -88,6 +92,9 @@ impl Tile {
             v.resize(slots + LANES, 0.0);
         }
         self.seg_slot.resize(slots + LANES, 0);
+        for v in [&mut self.q_row, &mut self.q_s, &mut self.q_e, &mut self.q_slot] {
+            v.resize(slots + LANES, 0);
+        }
         self.visible.clear();
         self.visible.resize(slots / LANES, 0);
     }
@@ -121,23 +128,14 @@ impl Tile {
         }
         // Pass 1 on the packed segments: the extents, the row queries of the valid ones (a
         // segment that covers no voxel is unoccluded).
-        self.queries.clear();
-        self.query_slot.clear();
+        assert!(array.row_count() <= u32::MAX as usize, "row indices fit in u32");
+        self.queries = 0;
         for at in (0..self.segs).step_by(LANES) {
             let lanes = lane_mask(self.segs - at);
             #[cfg(target_arch = "x86_64")]
             if simd {
                 // SAFETY: AVX2 was detected on this CPU.
-                let raw = unsafe { avx2::extents(array, &self.seg, at) };
-                let mut bits = raw.valid & lanes;
-                while bits != 0 {
-                    let k = bits.trailing_zeros() as usize;
-                    bits &= bits - 1;
-                    if let Some(x) = raw.extent(k) {
-                        self.queries.push(RowQuery::new(&x, R::BITS));
-                        self.query_slot.push(self.seg_slot[at + k]);
-                    }
-                }
+                unsafe { avx2::queries(self, array, at, lanes) };
                 continue;
             }
             for k in 0..LANES {
@@ -146,14 +144,16 @@ impl Tile {
                 }
                 let v = |c: usize| Vec3::new(self.seg[c][at + k], self.seg[c + 1][at + k], self.seg[c + 2][at + k]);
                 if let Some(x) = query::extent(&array.grid, &array.dirs, v(0), v(3), array.bias_start_cells, array.bias_end_cells) {
-                    self.queries.push(RowQuery::new(&x, R::BITS));
-                    self.query_slot.push(self.seg_slot[at + k]);
+                    let q = self.queries;
+                    self.q_row[q] = x.row_index(R::BITS) as u32;
+                    (self.q_s[q], self.q_e[q], self.q_slot[q]) = (x.s, x.e, self.seg_slot[at + k]);
+                    self.queries += 1;
                 }
             }
         }
         // Passes 2 and 3: every row load of the tile × light in flight together.
-        let (visible, slots) = (&mut self.visible, &self.query_slot);
-        array.occluded_rows(&mut self.queries, |q| {
+        let (visible, slots, n) = (&mut self.visible, &self.q_slot, self.queries);
+        array.occluded_rows(&mut self.q_row[..n], &self.q_s[..n], &self.q_e[..n], |q| {
             let slot = slots[q] as usize;
             visible[slot / LANES] &= !(1 << (slot % LANES));
         });
@@ -238,7 +238,7 @@ const PACK: [[i32; LANES]; 1 << LANES] = {
 #[cfg(target_arch = "x86_64")]
 mod avx2 {
     use super::*;
-    use crate::extent8::avx2::{Raw, V, abs, extents_raw, neg, rmax, rmin, select, splat};
+    use crate::extent8::avx2::{V, abs, extents_regs, neg, rmax, rmin, select, splat};
     use std::arch::x86_64::*;
 
     #[inline]
@@ -262,6 +262,22 @@ mod avx2 {
     fn load_i(x: &[i32; LANES]) -> __m256i {
         // SAFETY: eight i32s are readable at `x`.
         unsafe { _mm256_loadu_si256(x.as_ptr() as *const __m256i) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn load_u(x: &[u32]) -> __m256i {
+        assert!(x.len() >= LANES);
+        // SAFETY: eight u32s are readable at `x`.
+        unsafe { _mm256_loadu_si256(x.as_ptr() as *const __m256i) }
+    }
+
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    fn store_i(x: &mut [u32], v: __m256i) {
+        assert!(x.len() >= LANES);
+        // SAFETY: eight u32s are writable at `x`.
+        unsafe { _mm256_storeu_si256(x.as_mut_ptr() as *mut __m256i, v) }
     }
 
     /// glam's `Vec3::dot`: `(x·x' + y·y') + z·z'`.
@@ -353,25 +369,35 @@ mod avx2 {
         }
         let slots = _mm256_add_epi32(_mm256_set1_epi32(at as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
         let packed = _mm256_permutevar8x32_epi32(slots, pack);
-        let out = &mut tile.seg_slot[m..m + LANES];
-        // SAFETY: eight u32s are writable at `out`.
-        unsafe { _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, packed) };
+        store_i(&mut tile.seg_slot[m..], packed);
         tile.segs += active.count_ones() as usize;
         Some(active)
     }
 
-    /// The extents of the packed segments `at..at + LANES` ([`extents_raw`]).
+    /// Pass 1 on the packed segments `at..at + LANES` (those in `lanes`): their extents
+    /// ([`extents_regs`]), and the row queries of the valid ones appended, left-packed.
     ///
     /// # Safety
     /// The CPU must support AVX2.
     #[inline]
     #[target_feature(enable = "avx2")]
-    pub unsafe fn extents<R: Row>(array: &Array<R>, seg: &[Vec<f32>; 6], at: usize) -> Raw {
-        let v = |c: usize| load(&seg[c][at..]);
+    pub unsafe fn queries<R: Row>(tile: &mut Tile, array: &Array<R>, at: usize, lanes: u32) {
+        let v = |c: usize| load(&tile.seg[c][at..]);
+        let (bs, be) = (array.bias_start_cells, array.bias_end_cells);
         // SAFETY: the caller's.
-        unsafe {
-            extents_raw(&array.grid, &array.dirs, (v(0), v(1), v(2)), (v(3), v(4), v(5)), array.bias_start_cells, array.bias_end_cells)
-        }
+        let x = unsafe { extents_regs(&array.grid, &array.dirs, (v(0), v(1), v(2)), (v(3), v(4), v(5)), bs, be) };
+        let valid = x.valid & lanes;
+        // `Extent::row_index`: (voxelization · N + y) · N + x, below 2³² (checked by the caller).
+        let n = _mm256_set1_epi32(R::BITS as i32);
+        let row = _mm256_add_epi32(_mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(x.voxelization, n), x.y), n), x.x);
+        let pack = load_i(&PACK[valid as usize]);
+        let q = tile.queries;
+        store_i(&mut tile.q_row[q..], _mm256_permutevar8x32_epi32(row, pack));
+        store_i(&mut tile.q_s[q..], _mm256_permutevar8x32_epi32(x.s, pack));
+        store_i(&mut tile.q_e[q..], _mm256_permutevar8x32_epi32(x.e, pack));
+        let slot = load_u(&tile.seg_slot[at..]);
+        store_i(&mut tile.q_slot[q..], _mm256_permutevar8x32_epi32(slot, pack));
+        tile.queries += valid.count_ones() as usize;
     }
 
     /// `e[c][at + k] += contrib[c][at + k]` for the lanes `k` set in `visible`.
