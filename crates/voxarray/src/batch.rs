@@ -61,7 +61,7 @@ impl<R: Row> Array<R> {
     }
 
     /// Passes 2 and 3 over a whole list of row queries at once (the tiled shader's queries of
-    /// one light over a tile, [`crate::shade8`]): query `k` reads row `rows[k]` (an index into
+    /// one light over a tile, [`crate::shade8`], up to 64 in flight rather than 8): query `k` reads row `rows[k]` (an index into
     /// the flat row array, as [`Extent::row_index`]) clipped to `s[k]..=e[k]`. Every row (or
     /// packed index word) is prefetched, then for a compressed array every dictionary row once
     /// its index is known, then the rows are loaded and clipped. Calls `occluded(k)` for each

@@ -13,10 +13,11 @@ fn tiled_simd_image_equals_scalar_image() {
     // The scalar formation inside the tiled shader: a spot and a directional light.
     scene.lights.push(Light::spot(Vec3::new(2.0, 6.0, 3.0), Vec3::new(0.1, -1.0, 0.2).normalize(), Vec3::splat(40.0), 0.3, 0.6));
     scene.lights.push(Light::directional(Vec3::new(0.4, -1.0, 0.3).normalize(), Vec3::splat(0.5)));
-    let ctx = FrameContext::new(&scene, 0.0, 48, 36);
-    let g = ctx.gbuffer();
     let mut compared = 0usize;
-    for compress in [true, false] {
+    // 45×29: tiles cut at the right and bottom edges.
+    for (compress, (w, h)) in [(true, (48, 36)), (false, (48, 36)), (true, (45, 29))] {
+        let ctx = FrameContext::new(&scene, 0.0, w, h);
+        let g = ctx.gbuffer();
         let render = |tiled: bool, simd: bool| {
             let p = format!("compress={compress}");
             let (t, s) = (format!("tiled={tiled}"), format!("simd={simd}"));
@@ -38,7 +39,7 @@ fn tiled_simd_image_equals_scalar_image() {
             let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
             let differ = img.pixels.iter().zip(&reference.pixels).filter(|(a, b)| bits(a) != bits(b)).count();
             println!(
-                "compress={compress} tiled={tiled} simd={simd} (AVX2 on this CPU: {}): {} pixels compared, {differ} differ; {rays} vs {decisions} shadow decisions",
+                "{w}x{h} compress={compress} tiled={tiled} simd={simd} (AVX2 on this CPU: {}): {} pixels compared, {differ} differ; {rays} vs {decisions} shadow decisions",
                 glimpse_voxarray::extent8::avx2_available(),
                 img.pixels.len()
             );
