@@ -75,11 +75,11 @@ pub(crate) mod avx2 {
     use std::arch::x86_64::*;
     use std::f32::consts::{FRAC_PI_2, PI};
 
-    type V = __m256;
+    pub(crate) type V = __m256;
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn splat(x: f32) -> V {
+    pub(crate) fn splat(x: f32) -> V {
         _mm256_set1_ps(x)
     }
 
@@ -87,33 +87,33 @@ pub(crate) mod avx2 {
     /// `_mm256_min_ps(a, b)` returns `b` when either is NaN, so patch the lanes where `b` is.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn rmin(a: V, b: V) -> V {
+    pub(crate) fn rmin(a: V, b: V) -> V {
         _mm256_blendv_ps(_mm256_min_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b))
     }
 
     /// Rust's `a.max(b)`, as [`rmin`].
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn rmax(a: V, b: V) -> V {
+    pub(crate) fn rmax(a: V, b: V) -> V {
         _mm256_blendv_ps(_mm256_max_ps(a, b), a, _mm256_cmp_ps::<_CMP_UNORD_Q>(b, b))
     }
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn neg(a: V) -> V {
+    pub(crate) fn neg(a: V) -> V {
         _mm256_xor_ps(a, splat(-0.0))
     }
 
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn abs(a: V) -> V {
+    pub(crate) fn abs(a: V) -> V {
         _mm256_andnot_ps(splat(-0.0), a)
     }
 
     /// `if mask { b } else { a }` per lane.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn select(mask: V, b: V, a: V) -> V {
+    pub(crate) fn select(mask: V, b: V, a: V) -> V {
         _mm256_blendv_ps(a, b, mask)
     }
 
@@ -166,14 +166,14 @@ pub(crate) mod avx2 {
         _mm256_setr_ps(field(&v[0]), field(&v[1]), field(&v[2]), field(&v[3]), field(&v[4]), field(&v[5]), field(&v[6]), field(&v[7]))
     }
 
-    /// [`Grid::to_cells_ij`] of the points `p` with the gathered (cos, sin) of θ_i and φ_j.
+    /// [`Grid::to_cells_ij`] of the points `(x, y, z)` with the gathered (cos, sin) of θ_i and φ_j.
     #[inline]
     #[target_feature(enable = "avx2")]
-    fn to_cells(grid: &Grid, (ct, st, cp, sp): (V, V, V, V), p: &[Vec3; LANES]) -> (V, V, V) {
+    fn to_cells(grid: &Grid, (ct, st, cp, sp): (V, V, V, V), (x, y, z): (V, V, V)) -> (V, V, V) {
         let scale = splat(grid.scale);
-        let vx = _mm256_mul_ps(_mm256_sub_ps(lanes(p, |v| v.x), splat(grid.center.x)), scale);
-        let vy = _mm256_mul_ps(_mm256_sub_ps(lanes(p, |v| v.y), splat(grid.center.y)), scale);
-        let vz = _mm256_mul_ps(_mm256_sub_ps(lanes(p, |v| v.z), splat(grid.center.z)), scale);
+        let vx = _mm256_mul_ps(_mm256_sub_ps(x, splat(grid.center.x)), scale);
+        let vy = _mm256_mul_ps(_mm256_sub_ps(y, splat(grid.center.y)), scale);
+        let vz = _mm256_mul_ps(_mm256_sub_ps(z, splat(grid.center.z)), scale);
         // `Directions::rotate`.
         let ux = _mm256_add_ps(_mm256_mul_ps(ct, vx), _mm256_mul_ps(st, vz));
         let uz = _mm256_add_ps(_mm256_mul_ps(neg(st), vx), _mm256_mul_ps(ct, vz));
@@ -181,6 +181,34 @@ pub(crate) mod avx2 {
         let rz = _mm256_add_ps(_mm256_mul_ps(sp, vy), _mm256_mul_ps(cp, uz));
         let h = splat(grid.resolution as f32 * 0.5);
         (_mm256_add_ps(ux, h), _mm256_add_ps(ry, h), _mm256_add_ps(rz, h))
+    }
+
+    /// Eight extents in lanes: the fields of [`Extent`] as `u32` lanes, `valid` and `start_low`
+    /// as bit masks (bit `k` = lane `k`). Lanes not in `valid` hold garbage.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Raw {
+        pub voxelization: [u32; LANES],
+        pub x: [u32; LANES],
+        pub y: [u32; LANES],
+        pub s: [u32; LANES],
+        pub e: [u32; LANES],
+        pub valid: u32,
+        pub start_low: u32,
+    }
+
+    impl Raw {
+        /// Lane `k` as an [`Extent`], `None` where not valid.
+        #[inline]
+        pub fn extent(&self, k: usize) -> Option<Extent> {
+            (self.valid >> k & 1 != 0).then_some(Extent {
+                voxelization: self.voxelization[k],
+                x: self.x[k],
+                y: self.y[k],
+                s: self.s[k],
+                e: self.e[k],
+                start_low: self.start_low >> k & 1 != 0,
+            })
+        }
     }
 
     /// [`super::extents_scalar`], eight lanes in AVX2 registers.
@@ -196,6 +224,71 @@ pub(crate) mod avx2 {
         bias_start_cells: f32,
         bias_end_cells: f32,
     ) -> [Option<Extent>; LANES] {
+        let x = |v: &[Vec3; LANES]| (lanes(v, |v| v.x), lanes(v, |v| v.y), lanes(v, |v| v.z));
+        let raw = unsafe { extents_raw(grid, dirs, x(starts), x(ends), bias_start_cells, bias_end_cells) };
+        std::array::from_fn(|k| raw.extent(k))
+    }
+
+    /// [`extents`] of the segments `start → end` given in lanes (structure of arrays).
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn extents_raw(
+        grid: &Grid,
+        dirs: &Directions,
+        start: (V, V, V),
+        end: (V, V, V),
+        bias_start_cells: f32,
+        bias_end_cells: f32,
+    ) -> Raw {
+        let r = unsafe { extents_regs(grid, dirs, start, end, bias_start_cells, bias_end_cells) };
+        let mut raw = Raw {
+            voxelization: [0; LANES],
+            x: [0; LANES],
+            y: [0; LANES],
+            s: [0; LANES],
+            e: [0; LANES],
+            valid: r.valid,
+            start_low: r.start_low,
+        };
+        let store = |o: &mut [u32; LANES], v: __m256i| unsafe { _mm256_storeu_si256(o.as_mut_ptr() as *mut __m256i, v) };
+        store(&mut raw.voxelization, r.voxelization);
+        store(&mut raw.x, r.x);
+        store(&mut raw.y, r.y);
+        store(&mut raw.s, r.s);
+        store(&mut raw.e, r.e);
+        raw
+    }
+
+    /// Eight extents in registers: the fields of [`Extent`] as `u32` lanes, `valid` and
+    /// `start_low` as bit masks. Lanes not in `valid` hold garbage.
+    #[derive(Clone, Copy, Debug)]
+    pub struct Regs {
+        pub voxelization: __m256i,
+        pub x: __m256i,
+        pub y: __m256i,
+        pub s: __m256i,
+        pub e: __m256i,
+        pub valid: u32,
+        pub start_low: u32,
+    }
+
+    /// [`extents_raw`], left in registers.
+    ///
+    /// # Safety
+    /// The CPU must support AVX2.
+    #[inline]
+    #[target_feature(enable = "avx2")]
+    pub unsafe fn extents_regs(
+        grid: &Grid,
+        dirs: &Directions,
+        (sx, sy, sz): (V, V, V),
+        (ex, ey, ez): (V, V, V),
+        bias_start_cells: f32,
+        bias_end_cells: f32,
+    ) -> Regs {
         // The table is gathered as flat f32s: (f32, f32) has no guaranteed layout, so read it.
         const {
             assert!(std::mem::size_of::<(f32, f32)>() == 8);
@@ -209,9 +302,9 @@ pub(crate) mod avx2 {
             let zero = _mm256_setzero_ps();
 
             // `discretize(end − start)`: `normalize_or(Vec3::Z)`.
-            let dx = _mm256_sub_ps(lanes(ends, |v| v.x), lanes(starts, |v| v.x));
-            let dy = _mm256_sub_ps(lanes(ends, |v| v.y), lanes(starts, |v| v.y));
-            let dz = _mm256_sub_ps(lanes(ends, |v| v.z), lanes(starts, |v| v.z));
+            let dx = _mm256_sub_ps(ex, sx);
+            let dy = _mm256_sub_ps(ey, sy);
+            let dz = _mm256_sub_ps(ez, sz);
             let dot = _mm256_add_ps(_mm256_add_ps(_mm256_mul_ps(dx, dx), _mm256_mul_ps(dy, dy)), _mm256_mul_ps(dz, dz));
             let rcp = _mm256_div_ps(splat(1.0), _mm256_sqrt_ps(dot));
             let ok = _mm256_and_ps(_mm256_cmp_ps::<_CMP_LT_OQ>(abs(rcp), splat(f32::INFINITY)), _mm256_cmp_ps::<_CMP_GT_OQ>(rcp, zero));
@@ -253,8 +346,8 @@ pub(crate) mod avx2 {
             let gather =
                 |k: __m256i, at: i32| _mm256_i32gather_ps::<4>(table, _mm256_add_epi32(_mm256_slli_epi32::<1>(k), _mm256_set1_epi32(at)));
             let cs = (gather(i, cos_at), gather(i, sin_at), gather(j, cos_at), gather(j, sin_at));
-            let (q0x, q0y, q0z) = to_cells(grid, cs, starts);
-            let (q1x, q1y, q1z) = to_cells(grid, cs, ends);
+            let (q0x, q0y, q0z) = to_cells(grid, cs, (sx, sy, sz));
+            let (q1x, q1y, q1z) = to_cells(grid, cs, (ex, ey, ez));
             let mx = _mm256_mul_ps(_mm256_add_ps(q0x, q1x), half);
             let my = _mm256_mul_ps(_mm256_add_ps(q0y, q1y), half);
             let nf = splat(grid.resolution as f32);
@@ -275,23 +368,15 @@ pub(crate) mod avx2 {
             let valid = _mm256_movemask_ps(_mm256_andnot_ps(bad, inside)) as u32;
             let low = _mm256_movemask_ps(low) as u32;
 
-            let mut out = [[0u32; LANES]; 5];
-            let store = |o: &mut [u32; LANES], v: __m256i| _mm256_storeu_si256(o.as_mut_ptr() as *mut __m256i, v);
-            store(&mut out[0], _mm256_add_epi32(_mm256_mullo_epi32(i, nv), j));
-            store(&mut out[1], _mm256_cvttps_epi32(mx));
-            store(&mut out[2], _mm256_cvttps_epi32(my));
-            store(&mut out[3], _mm256_cvttps_epi32(lo));
-            store(&mut out[4], _mm256_cvttps_epi32(hi));
-            std::array::from_fn(|k| {
-                (valid >> k & 1 != 0).then_some(Extent {
-                    voxelization: out[0][k],
-                    x: out[1][k],
-                    y: out[2][k],
-                    s: out[3][k],
-                    e: out[4][k],
-                    start_low: low >> k & 1 != 0,
-                })
-            })
+            Regs {
+                voxelization: _mm256_add_epi32(_mm256_mullo_epi32(i, nv), j),
+                x: _mm256_cvttps_epi32(mx),
+                y: _mm256_cvttps_epi32(my),
+                s: _mm256_cvttps_epi32(lo),
+                e: _mm256_cvttps_epi32(hi),
+                valid,
+                start_low: low,
+            }
         }
     }
 }

@@ -23,6 +23,7 @@ pub mod dynamic;
 pub mod extent8;
 pub mod query;
 pub mod row;
+pub mod shade8;
 pub mod technique;
 pub mod voxelize;
 
