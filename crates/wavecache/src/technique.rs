@@ -146,6 +146,8 @@ pub struct Runtime<'a> {
     /// Per material: a glossy lobe too narrow for its radiance map, shaded by tracing a sample
     /// of its BSDF instead of Eq. 20 ([`lobe_finer_than_map`]).
     pub traced: Vec<bool>,
+    /// Emissive triangles by hit, for the MIS weight of emission a traced sample finds.
+    pub emitters: direct::EmitterIndex,
 }
 
 /// Whether a GGX lobe of `roughness` is narrower than a texel of a radiance half-cube map of
@@ -220,7 +222,8 @@ impl<'a> Runtime<'a> {
                 params.trace_sharp && (sharp_glossy || rough_mirror)
             })
             .collect();
-        Self { cache, params, frame, vis, classes, traced }
+        let emitters = direct::EmitterIndex::new(frame);
+        Self { cache, params, frame, vis, classes, traced, emitters }
     }
 
     /// The cache point chosen for (x, n) on instance `inst`.
@@ -402,19 +405,80 @@ impl<'a> Runtime<'a> {
         (le + l, rays + 1)
     }
 
-    /// A sharp glossy lobe's reflected radiance (everything but punctual lights) from one BSDF
-    /// sample, traced ([`lobe_finer_than_map`]): f cos / pdf × the radiance arriving along it.
+    /// A sharp glossy lobe's reflected radiance (everything but punctual lights), estimated as
+    /// `pt` estimates one bounce: light sampling of the area lights and of the environment, and
+    /// one BSDF sample whose hit adds its emission, each weighted by the power heuristic against
+    /// the other strategy, plus the hit's own shading from the cache (up to `mirror_depth`).
+    /// Without the light sampling a small bright emitter or a map's softbox found by the BSDF
+    /// sample alone made fireflies hundreds of times the pixel (`textured-glossy`'s floor).
     fn traced_sample(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
-        let m = &self.frame.scene.materials[s.material as usize];
+        let frame = self.frame;
+        let m = &frame.scene.materials[s.material as usize];
         let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
             return (Vec3::ZERO, 0);
         };
-        let (u_lobe, u) = (rng.next_f32(), rng.next_2d());
-        let Some(bs) = b.sample(u_lobe, u) else {
-            return (Vec3::ZERO, 0);
+        let env = frame.scene.environment.as_ref();
+        let (mut l, mut rays) = (Vec3::ZERO, 0u64);
+        // Area lights (MIS).
+        let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
+        if let Some(ls) = direct::sample_area_light(frame, s.position, s.normal, u_pick, u_area) {
+            let (cos, f) = (b.cos(ls.wi), b.eval(ls.wi));
+            if cos > 0.0 && f.max_element() > 0.0 {
+                rays += 1;
+                if !self.vis.occluded(&ls.shadow, ls.t_max) {
+                    l += f * ls.radiance * (cos * direct::power_heuristic(ls.pdf, b.pdf(ls.wi)) / ls.pdf);
+                }
+            }
+        }
+        // The environment (MIS).
+        let u_env = rng.next_2d();
+        if let Some(env) = env {
+            let (d, le, pdf) = env.sample(u_env);
+            let (cos, f) = (b.cos(d), b.eval(d));
+            if pdf > 0.0 && cos > 0.0 && f.max_element() > 0.0 {
+                rays += 1;
+                if !self.vis.occluded(&Ray::spawn(s.position, s.normal, d), f32::INFINITY) {
+                    l += f * le * (cos * direct::power_heuristic(pdf, b.pdf(d)) / pdf);
+                }
+            }
+        }
+        // One BSDF sample: the emission it finds (MIS) and the hit's reflected light.
+        let Some(bs) = b.sample(rng.next_f32(), rng.next_2d()) else {
+            return (l, rays);
         };
-        let (l, rays) = self.incoming(s, bs.wi, depth, self.params.mirror_depth, rng);
-        (l * bs.f * (bs.cos / bs.pdf), rays)
+        if bs.wi.dot(s.normal) <= 0.0 {
+            return (l, rays);
+        }
+        let weight = bs.f * (bs.cos / bs.pdf);
+        let ray = Ray::spawn(s.position, s.normal, bs.wi);
+        rays += 1;
+        let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
+            if let Some(env) = env {
+                l += weight * env.radiance(bs.wi) * direct::power_heuristic(bs.pdf, env.pdf(bs.wi));
+            }
+            return (l, rays);
+        };
+        let sp = SurfacePoint::from_hit(frame, &ray, &hit);
+        let le = sp.emission(frame);
+        if le.max_element() > 0.0 {
+            let cos_light = sp.normal.dot(-bs.wi).abs();
+            let light_pdf = self.emitters.pdf(frame, hit.instance, hit.triangle, hit.t, cos_light);
+            l += weight * le * direct::power_heuristic(bs.pdf, light_pdf);
+        }
+        if depth + 1 < self.params.mirror_depth {
+            let next = ShadePoint {
+                position: sp.position,
+                normal: sp.normal,
+                shading_normal: sp.shading_normal,
+                base: sp.base_color(frame),
+                material: sp.material,
+                instance: sp.instance,
+            };
+            let (reflected, r) = self.shade(&next, -bs.wi, depth + 1, rng);
+            l += weight * reflected;
+            rays += r;
+        }
+        (l, rays)
     }
 
     /// Eq. 18: the perfect-mirror chain.

@@ -53,7 +53,7 @@ fn a_near_mirror_sphere_beside_a_small_emitter_matches_pt() {
         progress: false,
         ..WavecacheParams::default()
     };
-    let settings = Settings { spp: 64, seed: 1 };
+    let settings = Settings { spp: 512, seed: 1 };
     let traced = mean(&render(&mut Wavecache::with_params(&settings, p.clone()), &ctx, &g));
     let mapped = mean(&render(&mut Wavecache::with_params(&settings, WavecacheParams { trace_sharp: false, ..p }), &ctx, &g));
     let want = mean(&reference);
