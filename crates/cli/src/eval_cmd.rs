@@ -43,6 +43,10 @@ pub struct EvalArgs {
     /// Output directory (report.html, results.json, images).
     #[arg(short, long)]
     pub output: PathBuf,
+    /// Send each technique's image and each reference to a running tev as it is done
+    /// (HOST:PORT, default 127.0.0.1:14158).
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
+    pub tev: Option<String>,
     #[command(flatten)]
     pub overrides: crate::scene_args::SceneArgs,
 }
@@ -76,6 +80,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         frames: a.frames,
         overrides: a.overrides.overrides(),
         time_reference: false,
+        tev: a.tev,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
 }
@@ -106,6 +111,7 @@ pub fn demo(a: DemoArgs) -> Result<()> {
         frames: 1,
         overrides: Default::default(),
         time_reference: false,
+        tev: None,
     };
     finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
 }

@@ -31,6 +31,9 @@ pub struct PlayArgs {
     /// Write the frames as DIR/frame-NNNN.png.
     #[arg(short, long)]
     pub output: Option<PathBuf>,
+    /// Stream every frame to a running tev (HOST:PORT, default 127.0.0.1:14158).
+    #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
+    pub tev: Option<String>,
     #[command(flatten)]
     pub overrides: crate::scene_args::SceneArgs,
 }
@@ -56,6 +59,7 @@ pub fn run(a: PlayArgs) -> Result<()> {
         out_dir: a.output,
         exposure: a.exposure,
         overrides: a.overrides.overrides(),
+        tev: a.tev,
     };
     let fmt = |ms: &std::collections::BTreeMap<String, f64>| ms.iter().map(|(k, v)| format!("{k} {v:.1}")).collect::<Vec<_>>().join(", ");
     let frames = run_play(&cfg, &glimpse_eval::registry(), |f| println!("frame {:>4} t={:.3}s: {} ms", f.frame, f.time, fmt(&f.ms)))?;

@@ -593,3 +593,86 @@ fn tev_receives_the_image_as_it_converges() {
         &["tev", "127.0.0.1:1"],
     );
 }
+
+/// A tev stand-in: accepts connections until `glimpse` has exited, and returns each connection's
+/// packets (a connection that sends nothing is the reachability probe).
+fn tev_server_run(args_after: impl FnOnce(&str) -> Output) -> (Output, Vec<Vec<(u8, Vec<u8>)>>) {
+    use std::io::Read;
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let address = listener.local_addr().unwrap().to_string();
+    listener.set_nonblocking(true).unwrap();
+    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let server = {
+        let done = done.clone();
+        std::thread::spawn(move || {
+            let mut connections = Vec::new();
+            loop {
+                match listener.accept() {
+                    Ok((mut s, _)) => {
+                        s.set_nonblocking(false).unwrap();
+                        let mut bytes = Vec::new();
+                        s.read_to_end(&mut bytes).unwrap();
+                        connections.push(tev_packets(&bytes));
+                    }
+                    Err(_) if done.load(std::sync::atomic::Ordering::SeqCst) => break,
+                    Err(_) => std::thread::sleep(std::time::Duration::from_millis(5)),
+                }
+            }
+            connections
+        })
+    };
+    let out = args_after(&address);
+    // Connections the process opened are queued before it exits; give the loop time to drain.
+    std::thread::sleep(std::time::Duration::from_millis(200));
+    done.store(true, std::sync::atomic::Ordering::SeqCst);
+    (out, server.join().unwrap())
+}
+
+/// `play --tev` sends every frame to one tev image; `eval --tev` sends each reference and each
+/// technique's image as its own tev image, after checking tev is reachable.
+#[test]
+fn play_and_eval_stream_to_tev() {
+    let (o, connections) = tev_server_run(|address| {
+        glimpse(&["play", "cornell", "-t", "ao-exact", "--frames", "3", "--size", "16x16", "--spp", "1", "--tev", address])
+    });
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let types: Vec<Vec<u8>> = connections.iter().map(|c| c.iter().map(|p| p.0).collect()).collect();
+    println!("play: {types:?}");
+    assert_eq!(types, [vec![4, 6, 6, 6]], "one image, one update per frame");
+    let dir = tmp("eval-tev");
+    let (o, connections) = tev_server_run(|address| {
+        glimpse(&[
+            "eval",
+            "cornell",
+            "-t",
+            "ao-roma",
+            "--size",
+            "16x16",
+            "--spp",
+            "2",
+            "--ref-spp",
+            "4",
+            "--no-cache",
+            "--tev",
+            address,
+            "-o",
+            dir.to_str().unwrap(),
+        ])
+    });
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let names: Vec<String> = connections
+        .iter()
+        .filter(|c| !c.is_empty())
+        .map(|c| {
+            let create = &c[0].1;
+            String::from_utf8_lossy(&create[1..create.iter().skip(1).position(|&b| b == 0).unwrap() + 1]).into_owned()
+        })
+        .collect();
+    println!("eval: {} connections, images {names:?}", connections.len());
+    assert!(connections[0].is_empty(), "the reachability probe comes first");
+    assert_eq!(names, ["ref ao-exact seed 0", "ao-roma"]);
+    assert_error(
+        &glimpse(&["eval", "cornell", "-t", "ao-roma", "--size", "8x8", "--tev", "127.0.0.1:1", "-o", dir.to_str().unwrap()]),
+        &["tev", "127.0.0.1:1"],
+    );
+}

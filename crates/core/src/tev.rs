@@ -101,3 +101,17 @@ impl Tev {
         self.stream.flush()
     }
 }
+
+/// Whether a tev listens at `address` (a connection opened and closed, nothing sent).
+pub fn check_reachable(address: &str) -> std::io::Result<()> {
+    let addr = address
+        .to_socket_addrs()?
+        .next()
+        .ok_or_else(|| std::io::Error::new(std::io::ErrorKind::InvalidInput, format!("{address}: no such address")))?;
+    TcpStream::connect_timeout(&addr, Duration::from_secs(2)).map(drop)
+}
+
+/// Sends `image` to tev at `address` as the image `name` (created, or replaced if it exists).
+pub fn send_image(address: &str, name: &str, image: &Image) -> std::io::Result<()> {
+    Tev::connect(address, name, image.width, image.height)?.update(image)
+}

@@ -49,6 +49,9 @@ pub struct EvalConfig {
     /// Also time each reference at the technique's own `spp` and seed (not cached), for the
     /// speed-up over the exact reference on the same GBuffer (`Run::reference_ms`).
     pub time_reference: bool,
+    /// Send each reference and each technique's image to a running tev at this HOST:PORT as it
+    /// is done (`--tev`); unreachable is an error before any work.
+    pub tev: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -189,6 +192,19 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     let ids = runnable;
     std::fs::create_dir_all(&cfg.out_dir).with_context(|| format!("{}: cannot create the output directory", cfg.out_dir.display()))?;
 
+    if let Some(address) = &cfg.tev {
+        glimpse_core::tev::check_reachable(address).with_context(|| format!("--tev: cannot reach tev at {address}"))?;
+    }
+    // Each image to tev as it is done; a tev that went away stops the streaming, not the eval.
+    let tev_live = std::cell::Cell::new(cfg.tev.is_some());
+    let to_tev = |name: &str, img: &Image| {
+        if let (true, Some(address)) = (tev_live.get(), &cfg.tev)
+            && let Err(e) = glimpse_core::tev::send_image(address, name, img)
+        {
+            eprintln!("warning: --tev: {e}; not streaming any more");
+            tev_live.set(false);
+        }
+    };
     let sw = Stopwatch::start();
     let mut ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
     let frames = cfg.frames.max(1);
@@ -246,6 +262,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                 }
             };
             let file = write(&format!("ref-{}-seed{ref_seed}", slug(&ref_id)), &image)?;
+            to_tev(&format!("ref {ref_id} seed {ref_seed}"), &image);
             references.insert(ref_key.clone(), (image, cached, file));
         }
         let (reference, reference_cached, reference_file) = &references[&ref_key];
@@ -280,6 +297,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         for (stage, t) in r.prepare.stages.iter().chain(&r.render.stages) {
             *ms.entry(stage.clone()).or_insert(0.0) += t;
         }
+        to_tev(id, &r.image);
         let mut images = BTreeMap::new();
         images.insert("image".to_owned(), write(&slug(id), &r.image)?);
         images.insert("reference".to_owned(), reference_file.clone());

@@ -26,6 +26,8 @@ pub struct PlayConfig {
     pub exposure: f32,
     /// Command-line scene overrides (`--env`, `--sun`, `--light`, `--camera`, …).
     pub overrides: glimpse_scene::SceneOverrides,
+    /// Stream every frame to a running tev at this HOST:PORT (`--tev`).
+    pub tev: Option<String>,
 }
 
 #[derive(Clone, Debug, Serialize)]
@@ -45,6 +47,14 @@ pub fn run_play(cfg: &PlayConfig, registry: &Registry, mut log: impl FnMut(&Fram
         std::fs::create_dir_all(dir).with_context(|| format!("{}: cannot create the output directory", dir.display()))?;
     }
     let mut ctx = FrameContext::new(&scene, cfg.start_time, cfg.width, cfg.height);
+    // One tev image, replaced by each frame as it is rendered.
+    let mut tev = match &cfg.tev {
+        Some(address) => Some(
+            glimpse_core::tev::Tev::connect(address, &format!("{} {}", cfg.technique, cfg.scene_spec), cfg.width, cfg.height)
+                .with_context(|| format!("--tev: cannot reach tev at {address}"))?,
+        ),
+        None => None,
+    };
     let mut timings = Vec::new();
     for k in 0..cfg.frames {
         let time = cfg.start_time + k as f32 / cfg.fps;
@@ -67,6 +77,10 @@ pub fn run_play(cfg: &PlayConfig, registry: &Registry, mut log: impl FnMut(&Fram
         }
         if let Some(dir) = &cfg.out_dir {
             r.image.write(&dir.join(format!("frame-{k:04}.png")), ToneMap { exposure: cfg.exposure })?;
+        }
+        if let Some(Err(e)) = tev.as_mut().map(|t| t.update(&r.image)) {
+            eprintln!("warning: --tev: {e}; not streaming any more");
+            tev = None;
         }
         let t = FrameTiming { frame: k, time, ms };
         log(&t);

@@ -370,6 +370,7 @@ pub fn run_suite(cfg: &SuiteConfig, registry: &Registry, mut log: impl FnMut(&st
                 frames,
                 overrides: Default::default(),
                 time_reference: true,
+                tev: None,
             };
             let results =
                 run_eval_subset(&eval, registry, &ids, &mut log).with_context(|| format!("suite scene {}", scene.file.display()))?;

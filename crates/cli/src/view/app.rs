@@ -218,6 +218,7 @@ impl ViewerApp {
             frames: r.max_passes.min(16),
             overrides: glimpse_scene::SceneOverrides { camera: Some(r.camera.clone()), ..self.overrides.clone() },
             time_reference: true,
+            tev: None,
         };
         eprintln!("saving an eval run to {} (in the background)", out_dir.display());
         std::thread::spawn(move || match glimpse_eval::experiment::run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}")) {
