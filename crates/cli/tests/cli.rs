@@ -528,7 +528,7 @@ fn aovs_are_written_as_exr_channels_beside_the_image() {
 
 /// The tev packets of one connection: (type, payload after the type byte), checking each
 /// packet's length prefix.
-fn tev_packets(bytes: &[u8]) -> Vec<(u8, Vec<u8>)> {
+fn tev_packets(bytes: &[u8]) -> TevPackets {
     let mut out = Vec::new();
     let mut at = 0;
     while at < bytes.len() {
@@ -596,7 +596,10 @@ fn tev_receives_the_image_as_it_converges() {
 
 /// A tev stand-in: accepts connections until `glimpse` has exited, and returns each connection's
 /// packets (a connection that sends nothing is the reachability probe).
-fn tev_server_run(args_after: impl FnOnce(&str) -> Output) -> (Output, Vec<Vec<(u8, Vec<u8>)>>) {
+/// One connection's tev packets: (type, payload).
+type TevPackets = Vec<(u8, Vec<u8>)>;
+
+fn tev_server_run(args_after: impl FnOnce(&str) -> Output) -> (Output, Vec<TevPackets>) {
     use std::io::Read;
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let address = listener.local_addr().unwrap().to_string();
