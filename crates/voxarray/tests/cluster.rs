@@ -6,8 +6,10 @@ use glimpse_core::Vec3;
 use glimpse_voxarray::voxelize::{Grid, cluster_vertices};
 use glimpse_voxarray::{Array, Rows, VoxArrayParams};
 
-fn scene(toml: &str) -> Vec<[Vec3; 3]> {
-    let path = std::env::temp_dir().join(format!("glimpse-cluster-{}.toml", std::process::id()));
+/// The world triangles of a scene.toml text (`name` keeps the tests' files apart: they run in
+/// parallel in one process).
+fn scene(name: &str, toml: &str) -> Vec<[Vec3; 3]> {
+    let path = std::env::temp_dir().join(format!("glimpse-cluster-{name}-{}.toml", std::process::id()));
     std::fs::write(&path, toml).unwrap();
     let scene = glimpse_scene::load(path.to_str().unwrap()).expect("scene loads");
     std::fs::remove_file(&path).ok();
@@ -25,6 +27,7 @@ fn plain(a: &Array<u64>) -> &[u64] {
 fn clustering_fine_meshes_keeps_the_voxels_and_answers() {
     // Three finely tessellated spheres (≈ 0.1-cell triangles at 64³) over a floor.
     let triangles = scene(
+        "fine",
         "[[quad]]\nsize = [4.0, 4.0]\n\
          [[sphere]]\nradius = 0.5\nsegments = 512\ntranslate = [-1.0, 0.5, 0.0]\n\
          [[sphere]]\nradius = 0.4\nsegments = 512\ntranslate = [0.8, 0.4, 0.5]\n\
@@ -71,6 +74,7 @@ fn clustering_fine_meshes_keeps_the_voxels_and_answers() {
 fn clustering_leaves_voxel_sized_triangles_alone() {
     // A floor and boxes: every vertex alone in its quarter-cell cube, or an exact duplicate.
     let triangles = scene(
+        "coarse",
         "[[quad]]\nsize = [4.0, 4.0]\n[[box]]\nsize = [1.0, 0.7, 0.4]\ntranslate = [0.3, 0.35, 0.1]\n\
          [[box]]\nsize = [0.3, 1.2, 0.3]\ntranslate = [-1.0, 0.6, -0.5]\nrotate_y_degrees = 30.0\n",
     );
