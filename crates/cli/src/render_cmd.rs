@@ -97,13 +97,16 @@ pub fn run(a: RenderArgs) -> Result<()> {
         None => None,
     };
     let prepare = with_spinner(&format!("preparing {}", a.technique), || technique.prepare(&ctx))?;
-    let (image, render) = render_film(technique.as_mut(), &mut ctx, |partial| {
+    let mut stream = |partial: &glimpse_core::Image| {
         // A viewer that went away does not stop the render.
         if let Some(Err(e)) = tev.as_mut().map(|t| t.update(partial)) {
             eprintln!("warning: --tev: {e}; not streaming any more");
             tev = None;
         }
-    })?;
+    };
+    let listening = a.tev.is_some();
+    let (image, render) =
+        render_film(technique.as_mut(), &mut ctx, listening.then_some(&mut stream as &mut dyn FnMut(&glimpse_core::Image)))?;
     let total_ms = total.ms();
 
     match &a.aov {
@@ -182,7 +185,7 @@ pub fn with_spinner<T>(label: &str, f: impl FnOnce() -> T) -> T {
 fn render_film(
     technique: &mut dyn glimpse_render::Technique,
     ctx: &mut FrameContext,
-    mut on_pass: impl FnMut(&glimpse_core::Image),
+    mut on_pass: Option<&mut dyn FnMut(&glimpse_core::Image)>,
 ) -> Result<(glimpse_core::Image, glimpse_render::Stats)> {
     let passes = ctx.film.samples.max(1);
     let mut sum = ctx.image();
@@ -196,13 +199,17 @@ fn render_film(
         let self_accumulating = s.stages.iter().any(|(stage, _)| stage == "accumulate");
         if self_accumulating || passes == 1 {
             sum = image.clone();
-            on_pass(&sum);
+            if let Some(f) = on_pass.as_mut() {
+                f(&sum);
+            }
         } else {
             sum.pixels.iter_mut().zip(&image.pixels).for_each(|(t, p)| *t += *p / passes as f32);
-            // The passes so far, at full brightness.
-            let mut so_far = sum.clone();
-            so_far.pixels.iter_mut().for_each(|p| *p *= passes as f32 / (pass + 1) as f32);
-            on_pass(&so_far);
+            if let Some(f) = on_pass.as_mut() {
+                // The passes so far, at full brightness (only made for a listener).
+                let mut so_far = sum.clone();
+                so_far.pixels.iter_mut().for_each(|p| *p *= passes as f32 / (pass + 1) as f32);
+                f(&so_far);
+            }
         }
         stats.merge(s);
     }

@@ -9,7 +9,7 @@
 use glimpse_core::{Image, Vec3};
 use glimpse_dvf::raybatch::{self, Former};
 use glimpse_dvf::rays::RaySet;
-use glimpse_dvf::technique::{EnvDvf, Runtime, RuntimePath};
+use glimpse_dvf::technique::{EnvDvf, RuntimePath};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::env::EnvExact;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
@@ -42,18 +42,8 @@ fn main() {
     let settings = Settings { spp: 1, seed: 0 };
     let mut t = EnvDvf::new(&settings, &Params::parse(&pairs).unwrap()).unwrap();
     let prep = t.prepare(&ctx).unwrap();
-    let dvf = t.dvf.as_ref().unwrap();
-    let env = scene.environment.as_ref().expect("an environment");
-    let sh = t.sh.unwrap_or_default();
-    let rt = Runtime {
-        dvf,
-        vis: &ctx.tracer,
-        env,
-        sh: &sh,
-        unshadowed: t.params.unshadowed,
-        trace_unknown: t.params.trace_unknown,
-        force_label: None,
-    };
+    let rt = t.runtime(&ctx).expect("an environment");
+    let dvf = rt.dvf;
     println!(
         "{} {w}x{h}: prepare {:.0} ms ({} points, grid {:?}, unshadowed {:?}), AVX2 former enabled: {}",
         args[1],

@@ -79,6 +79,19 @@ impl EnvDvf {
             map_noise: None,
         })
     }
+
+    /// The runtime over this frame's field (after `prepare`; `None` without an environment).
+    pub fn runtime<'a>(&'a self, ctx: &'a FrameContext) -> Option<Runtime<'a>> {
+        Some(Runtime {
+            dvf: self.dvf.as_ref()?,
+            vis: &ctx.tracer,
+            env: ctx.frame.scene.environment.as_ref()?,
+            sh: self.sh.as_ref()?,
+            unshadowed: self.params.unshadowed,
+            trace_unknown: self.params.trace_unknown,
+            force_label: self.force_label,
+        })
+    }
 }
 
 /// Order-2 SH of the environment's radiance, by midpoint quadrature over an equirectangular grid
@@ -391,18 +404,8 @@ impl Technique for EnvDvf {
             .as_ref()
             .ok_or_else(|| RenderError::Unsupported { technique: "env-dvf".into(), message: "render called before prepare".into() })?;
         let mut stats = Stats { memory_bytes: dvf.memory_bytes(), ..Default::default() };
-        let env = ctx.frame.scene.environment.as_ref();
-        let sh = self.sh.unwrap_or_default();
         let (n, about_normal) = (self.params.rays, self.params.rotate_about_normal);
-        let rt = env.map(|env| Runtime {
-            dvf,
-            vis: &ctx.tracer,
-            env,
-            sh: &sh,
-            unshadowed: self.params.unshadowed,
-            trace_unknown: self.params.trace_unknown,
-            force_label: self.force_label,
-        });
+        let rt = self.runtime(ctx);
         stats.rays = stats.time("shade", || {
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng| {
                 let (Some(s), Some(rt)) = (Shading::from_gbuffer(gbuffer, i), rt.as_ref()) else {

@@ -7,25 +7,14 @@ use glimpse_core::{Image, Rng, Vec3};
 use glimpse_dvf::grid::octahedral_pixel;
 use glimpse_dvf::raybatch::{self, Block, Former};
 use glimpse_dvf::rays::RaySet;
-use glimpse_dvf::technique::{EnvDvf, Runtime, RuntimePath};
+use glimpse_dvf::technique::{EnvDvf, RuntimePath};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_trace::GBuffer;
 
 /// The render loop of `EnvDvf::render`, with the runtime's loop chosen.
 fn shade(t: &EnvDvf, ctx: &FrameContext, g: &GBuffer, path: RuntimePath) -> (Image, u64) {
-    let dvf = t.dvf.as_ref().unwrap();
-    let env = ctx.frame.scene.environment.as_ref().unwrap();
-    let sh = t.sh.unwrap_or_default();
-    let rt = Runtime {
-        dvf,
-        vis: &ctx.tracer,
-        env,
-        sh: &sh,
-        unshadowed: t.params.unshadowed,
-        trace_unknown: t.params.trace_unknown,
-        force_label: t.force_label,
-    };
+    let rt = t.runtime(ctx).expect("prepared, with an environment");
     let mut img = ctx.image();
     let rays = direct::shade_pixels(ctx, g, t.settings.seed, &mut img, |i, rng| {
         let Some(s) = Shading::from_gbuffer(g, i) else { return (Vec3::ZERO, 0) };

@@ -216,7 +216,7 @@ pub fn compress_slabs<R: Row>(
                 .enumerate()
                 .map(|(j, &id)| found[id as usize].map_or_else(|| finder.random(k * slab_rows + j), |f| f.0))
                 .collect();
-            words.copy_from_slice(&pack(&assign, bits)[..words_per_slab]);
+            pack_into(&assign, bits, words);
             (mapped_at_step, random)
         })
         .collect();
@@ -283,11 +283,17 @@ impl<R: Row> Finder<R> {
     }
 }
 
-/// Indices packed LSB-first with `bits` bits each, plus two spare words. Each 64-bit word
-/// gathers the indices that touch it; parallel over words, no races.
+/// Indices packed LSB-first with `bits` bits each, plus two spare words.
 fn pack(assign: &[u32], bits: u32) -> Vec<u64> {
     let mut indices = crate::voxelize::alloc_rows::<u64>((assign.len() * bits as usize).div_ceil(64) + 2);
-    indices.par_iter_mut().enumerate().for_each(|(w, word)| {
+    pack_into(assign, bits, &mut indices);
+    indices
+}
+
+/// Packs `assign` LSB-first with `bits` bits each into `words` (zeroed, long enough). Each
+/// 64-bit word gathers the indices that touch it; parallel over words, no races.
+fn pack_into(assign: &[u32], bits: u32, words: &mut [u64]) {
+    words.par_iter_mut().enumerate().for_each(|(w, word)| {
         let lo_bit = w * 64;
         let first = lo_bit / bits as usize;
         let last = ((lo_bit + 64).div_ceil(bits as usize)).min(assign.len());
@@ -304,7 +310,6 @@ fn pack(assign: &[u32], bits: u32) -> Vec<u64> {
             }
         }
     });
-    indices
 }
 
 /// Every distinct row with its count (in no particular order), counted in per-task hash maps

@@ -157,8 +157,8 @@ pub struct Runtime<'a> {
 /// Why (issue #13, a deviation): such a lobe cannot be represented by the map. Eq. 20 then
 /// spreads a small bright emitter's texel over the whole lobe's peak, and a near-mirror sphere
 /// (roughness 0.12, 32² maps at `map_scale` 4) showed glints up to 40× `pt` (own MSE 1.0e3 on the
-/// `glints` suite scene). Those materials are shaded as a renderer shades sharp reflections: one
-/// BSDF sample per pixel sample, traced, its hit shaded from the cache (up to `mirror_depth`).
+/// `glints` suite scene). Those materials are shaded as `pt` shades one bounce (light sampling
+/// and one BSDF sample per pixel sample, MIS), the hit shaded from the cache (`traced_sample`).
 /// The paper's Table 2 starts its 128² maps at roughness 0.1; at `map_scale` 1 the rule keeps
 /// roughness above 0.111 on the cache. Materials below the mirror threshold with a non-zero roughness
 /// are traced the same way (their GGX lobe, as `pt` has it, instead of Eq. 18's perfect mirror).
@@ -188,6 +188,18 @@ pub struct ShadePoint {
 }
 
 impl ShadePoint {
+    /// The surface a traced ray hit.
+    pub fn at_hit(frame: &glimpse_scene::SceneFrame, sp: &SurfacePoint) -> Self {
+        Self {
+            position: sp.position,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            base: sp.base_color(frame),
+            material: sp.material,
+            instance: sp.instance,
+        }
+    }
+
     /// The surface a GBuffer pixel sees.
     pub fn at_pixel(g: &GBuffer, i: usize) -> Self {
         Self {
@@ -375,12 +387,6 @@ impl<'a> Runtime<'a> {
     /// `max_depth` (emission only at the last link). (radiance, rays).
     fn specular_ray(&self, s: &ShadePoint, wo: Vec3, ns: Vec3, depth: u32, max_depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let dir = bsdf::reflect(wo, ns).normalize();
-        self.incoming(s, dir, depth, max_depth, rng)
-    }
-
-    /// Radiance arriving at `s` from unit direction `dir`, traced: the environment on a miss,
-    /// else the hit's emission plus its own shading while the chain is shorter than `max_depth`.
-    fn incoming(&self, s: &ShadePoint, dir: Vec3, depth: u32, max_depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         if dir.dot(s.normal) <= 0.0 {
             return (Vec3::ZERO, 0);
         }
@@ -393,15 +399,7 @@ impl<'a> Runtime<'a> {
         if depth + 1 >= max_depth {
             return (le, 1);
         }
-        let next = ShadePoint {
-            position: sp.position,
-            normal: sp.normal,
-            shading_normal: sp.shading_normal,
-            base: sp.base_color(self.frame),
-            material: sp.material,
-            instance: sp.instance,
-        };
-        let (l, rays) = self.shade(&next, -dir, depth + 1, rng);
+        let (l, rays) = self.shade(&ShadePoint::at_hit(self.frame, &sp), -dir, depth + 1, rng);
         (le + l, rays + 1)
     }
 
@@ -466,14 +464,7 @@ impl<'a> Runtime<'a> {
             l += weight * le * direct::power_heuristic(bs.pdf, light_pdf);
         }
         if depth + 1 < self.params.mirror_depth {
-            let next = ShadePoint {
-                position: sp.position,
-                normal: sp.normal,
-                shading_normal: sp.shading_normal,
-                base: sp.base_color(frame),
-                material: sp.material,
-                instance: sp.instance,
-            };
+            let next = ShadePoint::at_hit(frame, &sp);
             let (reflected, r) = self.shade(&next, -bs.wi, depth + 1, rng);
             l += weight * reflected;
             rays += r;
