@@ -257,6 +257,16 @@ impl PerLightMaps for ImperfectShadowMaps {
     fn memory_bytes(&self) -> usize {
         ImperfectShadowMaps::memory_bytes(self)
     }
+
+    /// The maps (r² depths per light) and the point pool (8 × `points` positions and normals).
+    fn estimate(lights: usize, p: &IsmParams) -> (String, u64) {
+        let r = p.resolution as u64;
+        let pool = 8 * p.points_per_map as u64 * 24;
+        (
+            format!("{lights} imperfect shadow maps of {r}² depths and a pool of {} points", 8 * p.points_per_map as u64),
+            lights as u64 * r * r * 4 + pool,
+        )
+    }
 }
 
 impl LightsIsm {

@@ -24,6 +24,9 @@ pub trait PerLightMaps: Send + Sync + Sized + 'static {
     /// Whether light `l` is hidden from the surface point `p` with normal `n`.
     fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool;
     fn memory_bytes(&self) -> usize;
+    /// What the maps of `lights` lights will hold, and its size in bytes, for the memory budget
+    /// (checked before the build).
+    fn estimate(lights: usize, p: &Self::Params) -> (String, u64);
 }
 
 /// A many-light technique over maps `M`: every light (or the first `lights`) at every pixel.
@@ -62,6 +65,8 @@ impl<M: PerLightMaps> Technique for LightsWithMaps<M> {
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = Stats::default();
         let lights = self.active_lights(ctx);
+        let (what, bytes) = M::estimate(lights.len(), &self.params);
+        glimpse_core::memory_budget::check(format!("{}: {what}", M::ID), bytes)?;
         self.maps = Some(stats.time(M::STAGE, || M::build(&ctx.frame, lights, &self.params)));
         stats.memory_bytes = self.maps.as_ref().map_or(0, |m| m.memory_bytes());
         Ok(stats)

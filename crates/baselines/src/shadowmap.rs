@@ -246,6 +246,11 @@ impl PerLightMaps for CubeShadowMaps {
     fn memory_bytes(&self) -> usize {
         CubeShadowMaps::memory_bytes(self)
     }
+
+    fn estimate(lights: usize, p: &ShadowMapParams) -> (String, u64) {
+        let r = p.resolution as u64;
+        (format!("{lights} cube shadow maps of 6 × {r}² depths"), lights as u64 * 6 * r * r * 4)
+    }
 }
 
 impl LightsShadowMap {

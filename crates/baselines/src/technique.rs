@@ -32,13 +32,17 @@ impl DfState {
         Ok(Self { params: p, settings: *settings, df: None, accumulator: Accumulator::new(window) })
     }
 
-    fn prepare(&mut self, ctx: &FrameContext) -> Stats {
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        // The BOM (R³ bits), the jump flood's seed per cell (4 B) and the field's three levels of
+        // u16 (R³ · (1 + 1/8 + 1/64) · 2 B < 3 B per cell).
+        let r = self.params.resolution as u64;
+        glimpse_core::memory_budget::check(format!("the {r}³ distance field"), r * r * r * 7 + r * r * r / 8)?;
         let df = DfScene::build(&ctx.frame, &self.params, self.settings.seed, ctx.frame_index);
         let mut stats = Stats { memory_bytes: df.field.memory_bytes(), ..Default::default() };
         stats.stage("bom", df.timings.voxelize_ms);
         stats.stage("jump flood", df.timings.jump_flood_ms);
         self.df = Some(df);
-        stats
+        Ok(stats)
     }
 
     fn df(&self, id: &str) -> Result<&DfScene, RenderError> {
@@ -75,7 +79,7 @@ impl Technique for AoDf {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        Ok(self.state.prepare(ctx))
+        self.state.prepare(ctx)
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
@@ -138,7 +142,7 @@ impl Technique for SoftDf {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        Ok(self.state.prepare(ctx))
+        self.state.prepare(ctx)
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {

@@ -6,9 +6,9 @@ use crate::scene_args::SceneArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use glimpse_core::ToneMap;
+use glimpse_eval::progress::{with_progress, with_spinner};
 use glimpse_render::{FrameContext, Params, Settings, Stopwatch};
 use std::path::PathBuf;
-use std::time::Duration;
 
 #[derive(Args)]
 pub struct RenderArgs {
@@ -146,38 +146,6 @@ pub fn run(a: RenderArgs) -> Result<()> {
     Ok(())
 }
 
-/// Runs `f`, showing a spinner named `label` with the elapsed time if it takes longer than a
-/// second (on a terminal only: indicatif draws nothing when stderr is not one).
-pub fn with_spinner<T>(label: &str, f: impl FnOnce() -> T) -> T {
-    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let watcher = {
-        let (done, label) = (done.clone(), label.to_owned());
-        std::thread::spawn(move || {
-            let start = std::time::Instant::now();
-            let mut spinner: Option<indicatif::ProgressBar> = None;
-            while !done.load(std::sync::atomic::Ordering::Relaxed) {
-                std::thread::park_timeout(Duration::from_millis(100));
-                if spinner.is_none() && start.elapsed() > Duration::from_secs(1) {
-                    let s = indicatif::ProgressBar::new_spinner().with_message(label.clone());
-                    s.set_style(indicatif::ProgressStyle::with_template("{spinner} {msg} ({elapsed})").expect("valid template"));
-                    spinner = Some(s);
-                }
-                if let Some(s) = &spinner {
-                    s.tick();
-                }
-            }
-            if let Some(s) = spinner {
-                s.finish_and_clear();
-            }
-        })
-    };
-    let out = f();
-    done.store(true, std::sync::atomic::Ordering::Relaxed);
-    watcher.thread().unpark();
-    let _ = watcher.join();
-    out
-}
-
 /// Renders `ctx.film.samples` passes, pass `p` shading primary sample `p` of every pixel (and
 /// drawing its random numbers as frame `p`), and averages them; a technique that blends its own
 /// history (it times an `accumulate` stage) already returns the average. Returns the image and
@@ -195,7 +163,12 @@ fn render_film(
         ctx.film_pass = pass;
         ctx.frame_index = pass;
         let gbuffer = ctx.gbuffer();
-        let s = with_progress(ctx, || technique.render(ctx, &gbuffer, &mut image))?;
+        let label = if passes > 1 {
+            format!("rendering {} (pass {}/{passes})", technique.id(), pass + 1)
+        } else {
+            format!("rendering {}", technique.id())
+        };
+        let s = with_progress(&label, ctx, || technique.render(ctx, &gbuffer, &mut image))?;
         let self_accumulating = s.stages.iter().any(|(stage, _)| stage == "accumulate");
         if self_accumulating || passes == 1 {
             sum = image.clone();
@@ -214,43 +187,4 @@ fn render_film(
         stats.merge(s);
     }
     Ok((sum, stats))
-}
-
-/// Runs `f`, showing a progress bar of finished pixels if it takes longer than a second.
-pub fn with_progress<T>(ctx: &FrameContext, f: impl FnOnce() -> T) -> T {
-    let pixels = ctx.width as u64 * ctx.height as u64;
-    ctx.progress.reset();
-    let progress = ctx.progress.clone();
-    let done = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
-    let watcher = {
-        let done = done.clone();
-        std::thread::spawn(move || {
-            let start = std::time::Instant::now();
-            let mut bar: Option<indicatif::ProgressBar> = None;
-            while !done.load(std::sync::atomic::Ordering::Relaxed) {
-                // Woken early when the work is done, so a short render does not wait out a tick.
-                std::thread::park_timeout(Duration::from_millis(50));
-                if bar.is_none() && start.elapsed() > Duration::from_secs(1) {
-                    let b = indicatif::ProgressBar::new(pixels);
-                    b.set_style(
-                        indicatif::ProgressStyle::with_template("{elapsed_precise} [{bar:40}] {percent}% pixels, eta {eta}")
-                            .expect("valid template")
-                            .progress_chars("=> "),
-                    );
-                    bar = Some(b);
-                }
-                if let Some(b) = &bar {
-                    b.set_position(progress.done().min(pixels));
-                }
-            }
-            if let Some(b) = bar {
-                b.finish_and_clear();
-            }
-        })
-    };
-    let out = f();
-    done.store(true, std::sync::atomic::Ordering::Relaxed);
-    watcher.thread().unpark();
-    let _ = watcher.join();
-    out
 }

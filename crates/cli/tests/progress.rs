@@ -58,3 +58,31 @@ fn a_long_prepare_shows_a_spinner_on_a_terminal() {
     }
     std::fs::remove_file(&out).ok();
 }
+
+/// `eval`'s reference render (here 64×64 AO at 4,096 spp: seconds on 2 cores) shows a pixel bar
+/// naming the reference under a terminal, as `render` does.
+#[test]
+fn an_eval_reference_render_shows_a_progress_bar_on_a_terminal() {
+    if Command::new("script").arg("--version").output().is_err() {
+        println!("skipped: `script` (util-linux) is not installed");
+        return;
+    }
+    let out = std::env::temp_dir().join(format!("glimpse-eval-progress-{}", std::process::id()));
+    let cmd = format!(
+        "{} eval cornell -t ao-roma --size 64x64 --spp 1 --ref-spp 4096 --no-sweep --no-cache -o {}",
+        env!("CARGO_BIN_EXE_glimpse"),
+        out.display()
+    );
+    let start = std::time::Instant::now();
+    let o = Command::new("script").args(["-qec", &cmd, "/dev/null"]).env("GLIMPSE_CACHE", "").output().unwrap();
+    let seconds = start.elapsed().as_secs_f64();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{text}");
+    let shown = text.contains("rendering ao-exact") && text.contains("% pixels");
+    println!("eval took {seconds:.1} s; reference bar shown: {shown}");
+    // The reference is most of the run: a run over 3 s had a reference render over a second.
+    if seconds > 3.0 {
+        assert!(shown, "no progress bar during a {seconds:.1} s eval: {text}");
+    }
+    std::fs::remove_dir_all(&out).ok();
+}

@@ -389,6 +389,10 @@ impl Technique for EnvDvf {
         let reuse = self.dvf.take().map(|d| d.masks);
         // The sample budget for this frame's size and triangle count (`points=auto` …).
         let p = self.params.for_frame(ctx.width as u64 * ctx.height as u64, ctx.frame.scene.triangle_count());
+        let grid = crate::grid::Grid::from_bounds(ctx.frame.bounds, p.grid);
+        let mask_bytes = 2 * 8 * ((p.octahedral as u64).pow(2).div_ceil(64));
+        let what = format!("env-dvf: {} cells of {}² visibility masks", grid.cell_count(), p.octahedral);
+        glimpse_core::memory_budget::check(what, grid.cell_count() as u64 * (mask_bytes + 1))?;
         let dvf = Dvf::build(&ctx.frame, &ctx.tracer, &p, self.settings.seed, ctx.frame_index, reuse, &mut stats);
         stats.metrics.push(("points".to_owned(), p.points as f64));
         stats.metrics.push(("grid".to_owned(), p.grid as f64));

@@ -8,6 +8,7 @@
 //! error is its own noise. References are cached on disk (see [`crate::cache`]).
 
 use crate::cache::Cache;
+use crate::progress::{with_progress, with_spinner};
 use anyhow::{Context, Result};
 use glimpse_core::{Image, ToneMap};
 use glimpse_render::metrics::{ErrorMapKind, Metrics, error_map};
@@ -111,10 +112,13 @@ pub struct Rendered {
     pub render: Stats,
 }
 
+/// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
+/// (references at high spp, a voxel array build, a wavelet precompute).
 pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &GBuffer) -> Result<Rendered> {
-    let prepare = technique.prepare(ctx)?;
+    let id = technique.id();
+    let prepare = with_spinner(&format!("preparing {id}"), || technique.prepare(ctx))?;
     let mut image = ctx.image();
-    let render = technique.render(ctx, gbuffer, &mut image)?;
+    let render = with_progress(&format!("rendering {id}"), ctx, || technique.render(ctx, gbuffer, &mut image))?;
     Ok(Rendered { image, prepare, render })
 }
 
@@ -206,7 +210,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         }
     };
     let sw = Stopwatch::start();
-    let mut ctx = FrameContext::new(&scene, cfg.time, cfg.width, cfg.height);
+    let mut ctx = with_spinner("building the scene's tracer", || FrameContext::new(&scene, cfg.time, cfg.width, cfg.height));
     let frames = cfg.frames.max(1);
     let gbuffer = ctx.gbuffer();
     let gbuffer_ms = sw.ms();

@@ -7,6 +7,7 @@ pub mod cache;
 pub mod experiment;
 pub mod play;
 pub mod plot;
+pub mod progress;
 pub mod report;
 pub mod suite;
 

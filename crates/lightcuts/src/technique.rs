@@ -156,6 +156,12 @@ impl Technique for VplTechnique {
         let sim = vp.similarity;
         let seed = self.settings.seed;
 
+        // One RSM at a time (with its selection PDF, filtered copy and mips: ~28 B per texel),
+        // then the VPLs and their tree (two nodes per VPL).
+        let texels = (p.rsm_resolution as u64).pow(2);
+        let per_vpl = (std::mem::size_of::<crate::tree::Vpl>() + 2 * std::mem::size_of::<crate::tree::SstNode>()) as u64;
+        let what = format!("{}: a {}² reflective shadow map and {} VPLs with their light tree", self.id(), p.rsm_resolution, p.vpl_count);
+        glimpse_core::memory_budget::check(what, texels * (glimpse_render::rsm::BYTES_PER_TEXEL + 28) + p.vpl_count as u64 * per_vpl)?;
         let vpls = stats.time("generate vpls", || vpl::generate(&ctx.frame, &ctx.tracer, gbuffer, &vp, seed, ctx.frame_index));
         let sorted = stats.time("sort vpls", || sort_vpls(&vpls.vpls));
         let counters = &mut self.counters;

@@ -139,6 +139,18 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
     out
 }
 
+/// Bytes per RSM texel: position, normal, albedo, flux (12 B each), area and depth (4 B each).
+pub const BYTES_PER_TEXEL: u64 = 4 * 12 + 2 * 4;
+
+/// How many RSMs [`rsm_lights`] makes for `frame`: one per punctual light and one per instance
+/// with emissive triangles.
+pub fn rsm_light_count(frame: &SceneFrame) -> usize {
+    let mut instances: Vec<u32> = frame.emissive.iter().map(|e| e.instance).collect();
+    instances.sort_unstable();
+    instances.dedup();
+    frame.lights.len() + instances.len()
+}
+
 /// One reflective shadow map: `resolution²` texels, row-major, flat per-attribute arrays.
 #[derive(Clone, Debug, Default)]
 pub struct Rsm {
@@ -219,7 +231,7 @@ impl Rsm {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.len() * (4 * 12 + 2 * 4)
+        self.len() * BYTES_PER_TEXEL as usize
     }
 
     /// Total reflected flux of the map (W per channel).

@@ -90,6 +90,15 @@ impl RomaParams {
     }
 }
 
+impl RomaParams {
+    /// Bytes of one build, for the memory budget: n² maps of R² texels of R bits, plus the BOM
+    /// and the bit array Generate reads it through (R³ bits each).
+    pub fn estimated_bytes(&self) -> u64 {
+        let r = self.resolution as u64;
+        ((self.n as u64).pow(2) + 2) * r * r * r / 8
+    }
+}
+
 /// Wall time of one build, by stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BuildTimings {

@@ -55,14 +55,17 @@ impl RomaState {
         Ok(Self { params: params_read, settings: *settings, roma: None, accumulator: Accumulator::new(window) })
     }
 
-    fn prepare(&mut self, ctx: &FrameContext) -> Stats {
+    fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        let p = &self.params;
+        let what = format!("ROMA: {}² occupancy maps of {}³ bits", p.n, p.resolution);
+        glimpse_core::memory_budget::check(what, p.estimated_bytes())?;
         let roma = Roma::build(&ctx.frame, &self.params, self.settings.seed, ctx.frame_index);
         let t = roma.timings();
         let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
         stats.stage("bom", t.voxelize_ms);
         stats.stage("generate", t.generate_ms);
         self.roma = Some(roma);
-        stats
+        Ok(stats)
     }
 
     fn roma(&self, id: &str) -> Result<&Roma, RenderError> {
@@ -100,7 +103,7 @@ impl Technique for AoRoma {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        Ok(self.state.prepare(ctx))
+        self.state.prepare(ctx)
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
@@ -185,7 +188,7 @@ impl Technique for SoftRoma {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        Ok(self.state.prepare(ctx))
+        self.state.prepare(ctx)
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
@@ -283,9 +286,15 @@ impl Technique for GiRoma {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        let mut stats = self.state.prepare(ctx);
+        let mut stats = self.state.prepare(ctx)?;
         let (seed, jitter) = (self.state.settings.seed, self.state.params.jitter);
         let res = self.rsm_resolution;
+        let maps = glimpse_render::rsm::rsm_light_count(&ctx.frame);
+        let bytes = maps as u64 * (res as u64).pow(2) * glimpse_render::rsm::BYTES_PER_TEXEL;
+        glimpse_core::memory_budget::check(
+            format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", if maps == 1 { "" } else { "s" }),
+            bytes,
+        )?;
         self.rsms = stats.time("rsm", || {
             let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
             rsm_lights(&ctx.frame, &mut rng)

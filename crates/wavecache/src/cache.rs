@@ -16,6 +16,7 @@ use bytemuck::Pod;
 use glimpse_core::Vec3;
 use glimpse_core::bounded_read::{ReadError, limit};
 use glimpse_core::cache_file::{self, CacheFileError, CacheFormat};
+use glimpse_core::memory_budget::BudgetError;
 use glimpse_render::Stopwatch;
 use glimpse_scene::SceneFrame;
 use glimpse_trace::ExactTracer;
@@ -92,7 +93,7 @@ impl WaveCache {
         seed: u64,
         key: u64,
         tick: &(dyn Fn(u64) + Sync),
-    ) -> WaveCache {
+    ) -> Result<WaveCache, BudgetError> {
         let scene = frame.scene;
         let mut c = WaveCache { key, ..Default::default() };
         let classes: Vec<Class> = scene.materials.iter().map(|m| p.classify(m)).collect();
@@ -121,6 +122,7 @@ impl WaveCache {
                     tick,
                 );
                 c.brdf_tables.push(t);
+                c.check_budget()?;
             } else {
                 c.brdf_tables.push(BrdfTable::default());
             }
@@ -198,6 +200,7 @@ impl WaveCache {
             let (nodes, order) = bake::octree(&pts);
             c.points.extend(order.iter().map(|&o| pts[o as usize]));
             c.octree.extend(nodes.iter().copied());
+            c.check_budget()?;
             mc.node_count = nodes.len() as u32;
             mc.point_count = pts.len() as u32;
             mc.points_before = keep.len() as u32;
@@ -207,22 +210,49 @@ impl WaveCache {
         }
         let _ = (area_d, area_g);
         c.build_info = vec![brdf_ms, sw.ms(), rays as f64, plan.paths as f64, plan.scale];
-        c
+        Ok(c)
     }
 
-    /// Units of work [`WaveCache::build`] ticks (for the progress bar's length).
-    pub fn work_units(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+    /// Bytes of the cache known before its build, for the memory budget: the planned points with
+    /// their octree nodes and payload slots (an fp16 irradiance or a tree header each) and the
+    /// BRDF tables' tree headers (one per ω_o of every glossy material). The Haar coefficients
+    /// kept (β) depend on the lighting: [`WaveCache::build`] checks them as they grow.
+    pub fn estimated_bytes(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+        let (inst_class, areas) = classes_and_areas(frame, p);
+        let plan = plan_points(frame.scene, p, &inst_class, &areas);
+        let point = (std::mem::size_of::<CachePoint>() + std::mem::size_of::<OctNode>()) as u64;
+        let payload = |c: Class| if c == Class::Glossy { std::mem::size_of::<TreeRef>() as u64 } else { 6 };
+        let points: u64 = plan.points.iter().zip(&inst_class).map(|(&m, &c)| m as u64 * (point + payload(c))).sum();
+        let brdf = Self::glossy_materials(frame, p) * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 * std::mem::size_of::<TreeRef>() as u64;
+        points + brdf
+    }
+
+    /// Refuses a cache in the making that has outgrown the memory budget.
+    fn check_budget(&self) -> Result<(), BudgetError> {
+        glimpse_core::memory_budget::check(
+            "wavecache: the radiance cache (points and Haar coefficients) so far",
+            self.memory_bytes() as u64,
+        )
+    }
+
+    /// Materials used by a glossy instance (the ones with a BRDF table).
+    fn glossy_materials(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
         let scene = frame.scene;
-        let glossy_materials = scene
+        scene
             .materials
             .iter()
             .enumerate()
             .filter(|(mi, m)| {
                 p.classify(m) == Class::Glossy && scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == *mi)
             })
-            .count() as u64;
+            .count() as u64
+    }
+
+    /// Units of work [`WaveCache::build`] ticks (for the progress bar's length).
+    pub fn work_units(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+        let glossy_materials = Self::glossy_materials(frame, p);
         let (inst_class, areas) = classes_and_areas(frame, p);
-        let points: usize = plan_points(scene, p, &inst_class, &areas).points.iter().sum();
+        let points: usize = plan_points(frame.scene, p, &inst_class, &areas).points.iter().sum();
         glossy_materials * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 + points as u64
     }
 

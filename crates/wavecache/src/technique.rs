@@ -80,11 +80,11 @@ impl Wavecache {
         Self { params, settings: *settings, cache: None, source: "none" }
     }
 
-    fn ensure_cache(&mut self, ctx: &FrameContext, stats: &mut Stats) {
+    fn ensure_cache(&mut self, ctx: &FrameContext, stats: &mut Stats) -> Result<(), RenderError> {
         let key = stats.time("cache key", || cache_key(&ctx.frame, &self.params, self.settings.seed));
         if self.cache.as_ref().is_some_and(|c| c.key == key) {
             self.source = "memory";
-            return;
+            return Ok(());
         }
         let path = if self.params.disk_cache { WaveCache::path_for(key) } else { None };
         if let Some(path) = &path {
@@ -93,9 +93,11 @@ impl Wavecache {
                 stats.stage("cache load", sw.ms());
                 self.cache = Some(c);
                 self.source = "disk";
-                return;
+                return Ok(());
             }
         }
+        let estimate = WaveCache::estimated_bytes(&ctx.frame, &self.params);
+        glimpse_core::memory_budget::check("wavecache: the cache points and tree headers", estimate)?;
         let units = WaveCache::work_units(&ctx.frame, &self.params);
         let bar = if self.params.progress {
             let b = indicatif::ProgressBar::new(units);
@@ -110,6 +112,7 @@ impl Wavecache {
         let tick = |n: u64| bar.inc(n);
         let c = WaveCache::build(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed, key, &tick);
         bar.finish_and_clear();
+        let c = c?;
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
         stats.rays = c.build_info.get(2).copied().unwrap_or(0.0) as u64;
@@ -133,6 +136,7 @@ impl Wavecache {
         }
         self.cache = Some(c);
         self.source = "built";
+        Ok(())
     }
 }
 
@@ -494,7 +498,7 @@ impl Technique for Wavecache {
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = Stats::default();
-        self.ensure_cache(ctx, &mut stats);
+        self.ensure_cache(ctx, &mut stats)?;
         stats.memory_bytes = self.cache.as_ref().map_or(0, |c| c.memory_bytes());
         Ok(stats)
     }

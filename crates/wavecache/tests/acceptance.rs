@@ -749,7 +749,7 @@ fn glossy_runtime_matches_direct_integration_at_a_cache_point() {
     let scene = glimpse_scene::load("glossy").unwrap();
     let ctx = FrameContext::new(&scene, 0.0, 8, 8);
     let p = WavecacheParams { radiance_beta: 0.0, brdf_beta_scale: 0.0, ..small_params() };
-    let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {});
+    let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
     let rt = Runtime::new(&cache, &p, &ctx.frame, &ctx.tracer);
     let gold = scene.materials.iter().position(|m| m.name == "gold").unwrap() as u32;
     let inst = cache.meshes.iter().position(|m| m.material == gold).unwrap();
@@ -805,7 +805,7 @@ fn disk_cache_round_trip_and_corruption() {
     let ctx = FrameContext::new(&scene, 0.0, 8, 8);
     let p = WavecacheParams { diffuse_points: 100, glossy_points: 60, ..small_params() };
     let key = glimpse_wavecache::cache::cache_key(&ctx.frame, &p, 1);
-    let c = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {});
+    let c = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {}).unwrap();
     let dir = std::env::temp_dir().join(format!("wavecache-test-{}", std::process::id()));
     let path = dir.join("cache.bin");
     c.save(&path).unwrap();

@@ -78,7 +78,7 @@ fn mutated_cache_files_are_rejected_or_harmless() {
     let g = ctx.gbuffer();
     let p = params();
     let key = glimpse_wavecache::cache::cache_key(&ctx.frame, &p, 1);
-    let original = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {});
+    let original = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {}).unwrap();
     let reference = shade_all(&original, &p, &ctx, &g);
     let dir = std::env::temp_dir().join(format!("wavecache-mutation-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
