@@ -131,7 +131,7 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
     let mut scene = glimpse_scene::load(&cfg.scene_spec)?;
     cfg.overrides.apply(&mut scene).map_err(anyhow::Error::msg)?;
     let frame = scene.at(0.0);
-    let exact = ExactTracer::build(&frame);
+    let exact = crate::progress::with_spinner("building the scene's tracer", || ExactTracer::build(&frame));
     let camera = scene.camera_or_default(cfg.width as f32 / cfg.height as f32);
     let gbuffer = GBuffer::new(&frame, &exact, &camera, cfg.width, cfg.height);
     let rays = generate_rays(&frame, &gbuffer, cfg.kind, cfg.rays, cfg.radius, cfg.seed);
@@ -150,14 +150,16 @@ pub fn run_bench(cfg: &BenchConfig) -> Result<BenchResults> {
             continue;
         }
         let sw = Stopwatch::start();
-        let vis = (backend.build)(&frame)?;
+        let vis = crate::progress::with_spinner(&format!("building {}", backend.name), || (backend.build)(&frame))?;
         let build_ms = sw.ms();
         // Warm up caches and threads on a slice, then time the whole set.
         let mut answers = vec![false; rays.len()];
         let warm = rays.len().min(10_000);
         answer_batches(vis.as_ref(), &rays[..warm], &mut answers[..warm]);
         let sw = Stopwatch::start();
-        answer_batches(vis.as_ref(), &rays, &mut answers);
+        crate::progress::with_spinner(&format!("tracing {} rays through {}", rays.len(), backend.name), || {
+            answer_batches(vis.as_ref(), &rays, &mut answers)
+        });
         let trace_ms = sw.ms();
         if truth.is_empty() {
             truth = answers.clone();
