@@ -673,6 +673,7 @@ impl ViewerApp {
             println!("time: {}", self.request.time);
             println!("set: {}", self.request.set.join(" "));
             println!("history: {} frames ({})", self.history.frames, self.history.note);
+            println!("window: {:.0} ms per frame", 1e3 / self.fps.max(1e-3));
             let ctx2 = ctx.clone();
             ctx.request_screenshot(move |shot| {
                 // The image is drawn at one texel per physical pixel at the window's top-left
