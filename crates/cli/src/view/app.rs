@@ -2,10 +2,11 @@
 //! with the technique, compare mode, tone mapping, stage times and the camera, and mouse/keyboard
 //! camera control (orbit: left drag; pan: right drag; dolly: wheel; fly: W A S D Q E).
 
-use super::worker::{Request, StageTimes, Update, Which};
+use super::worker::{History, MAX_SCRUB_STEP_S, Request, StageTimes, Update, Which};
 use eframe::egui;
 use glimpse_core::{Image, ToneMap, Vec3};
 use glimpse_render::metrics::{ErrorMapKind, error_map, magma};
+use glimpse_render::params::{ParamInfo, ParamKind};
 use glimpse_scene::Camera;
 use std::path::PathBuf;
 use std::sync::mpsc::{Receiver, Sender};
@@ -31,6 +32,86 @@ pub struct Script {
     /// (degrees around the up axis) and a technique switch, to exercise both paths.
     pub orbit_degrees: Option<f32>,
     pub switch_to: Option<String>,
+    /// Parameters set once the first image is shown, through the path a widget's release takes.
+    pub set_params: Vec<(String, String)>,
+    /// Time steps of 1/[`PLAY_FPS`] s taken after that, each once the view has converged, through
+    /// the path the time slider takes (each continues the temporal history).
+    pub step_time: u32,
+}
+
+/// Scene time per frame of the scripted time steps: `glimpse play`'s default `--fps`.
+pub const PLAY_FPS: f32 = 30.0;
+
+/// One technique parameter in the side panel: what the technique read (kind, range, default,
+/// value) and the widget's state.
+struct ParamWidget {
+    info: ParamInfo,
+    /// The slider's value (numeric kinds).
+    number: f64,
+    /// The text field's contents (text, and the fallback beside a slider whose range is clamped).
+    text: String,
+}
+
+impl ParamWidget {
+    fn new(info: ParamInfo) -> Self {
+        let number = info.value.parse().unwrap_or(0.0);
+        Self { text: info.value.clone(), number, info }
+    }
+}
+
+/// A slider for a numeric parameter: its range, and how it moves.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SliderRange {
+    pub lo: f64,
+    pub hi: f64,
+    pub integer: bool,
+    /// Logarithmic where the range spans three orders of magnitude or more.
+    pub logarithmic: bool,
+    /// The parameter's own range is wider than the slider's (u32::MAX, infinity): a text field
+    /// beside the slider takes any value `--set` takes.
+    pub clamped: bool,
+}
+
+/// The slider for a numeric kind with this default, or `None` for the other kinds. A range
+/// wider than 100 times the default's magnitude (at least 1; 1000 for an infinite default) is
+/// clamped to that; the slider is logarithmic where its range spans a factor of 1000 or more
+/// (from the smallest positive value it can reach: 1 for integers).
+pub fn slider_range(kind: &ParamKind, default: &str) -> Option<SliderRange> {
+    let (min, max, integer) = match *kind {
+        ParamKind::F32 { min, max } => (min as f64, max as f64, false),
+        ParamKind::U32 { min, max } => (min as f64, max as f64, true),
+        ParamKind::I64 { min, max } => (min as f64, max as f64, true),
+        _ => return None,
+    };
+    let default: f64 = default.parse().unwrap_or(0.0);
+    let span = if default.is_finite() { 100.0 * default.abs().max(1.0) } else { 1000.0 };
+    let (lo, hi) = (min.max(-span), max.min(span.max(min + 1.0)));
+    let smallest = if lo > 0.0 {
+        lo
+    } else if integer {
+        1.0
+    } else {
+        hi * 1e-4
+    };
+    let logarithmic = lo >= 0.0 && hi / smallest >= 1000.0;
+    Some(SliderRange { lo, hi, integer, logarithmic, clamped: lo > min || hi < max })
+}
+
+/// The range or choices of a kind, for a hover text.
+fn describe_kind(kind: &ParamKind) -> String {
+    match kind {
+        ParamKind::F32 { min, max } => format!("a number in [{min}, {max}]"),
+        ParamKind::U32 { min, max } => format!("an integer in [{min}, {max}]"),
+        ParamKind::I64 { min, max } => format!("an integer in [{min}, {max}]"),
+        ParamKind::Bool => "true or false".to_owned(),
+        ParamKind::Choice(c) => format!("one of {}", c.join(", ")),
+        ParamKind::Text => "a word or a number".to_owned(),
+    }
+}
+
+/// A slider value as `--set` spells it: an integer, or the float the technique would read.
+fn format_number(v: f64, integer: bool) -> String {
+    if integer { format!("{}", v.round() as i64) } else { (v as f32).to_string() }
 }
 
 pub struct ViewerApp {
@@ -54,8 +135,18 @@ pub struct ViewerApp {
     times: (StageTimes, StageTimes),
     /// Rays per second and memory of the technique's last pass.
     throughput: (f64, usize),
-    /// The technique's parameters as it read them, and the edits typed into their fields.
-    params: Vec<(String, String)>,
+    /// The technique's parameters as it read them, with their widgets' state.
+    params: Vec<ParamWidget>,
+    /// The temporal history of the last image.
+    history: History,
+    /// When the current generation was requested, and the time to its first image on screen
+    /// (milliseconds, and the image's size).
+    first_frame: Option<(f64, (u32, u32))>,
+    /// The render thread's side of it: request to picked up, and to image ready (milliseconds).
+    first_frame_worker: Option<(f64, f64)>,
+    /// The scene time the window started at (scripted time steps count from it).
+    start_time: f32,
+    steps_done: u32,
     false_colour: bool,
     /// Animated scenes: playing, and the scene time when play started.
     pub animated: bool,
@@ -87,7 +178,9 @@ impl ViewerApp {
         let techniques: Vec<String> = registry.all().iter().map(|t| t.id.to_owned()).collect();
         let references = registry.all().iter().map(|t| t.reference.map(str::to_owned)).collect();
         let compare = if request.compare.is_some() { Compare::Split } else { Compare::Off };
+        let start_time = request.time;
         let app = Self {
+            start_time,
             request,
             techniques,
             references,
@@ -107,6 +200,10 @@ impl ViewerApp {
             times: (Vec::new(), Vec::new()),
             throughput: (0.0, 0),
             params: Vec::new(),
+            history: History::default(),
+            first_frame: None,
+            first_frame_worker: None,
+            steps_done: 0,
             false_colour: false,
             animated: false,
             playing: None,
@@ -126,6 +223,9 @@ impl ViewerApp {
         self.request.generation += 1;
         self.images = [None, None];
         self.error = None;
+        self.request.sent = Instant::now();
+        self.first_frame = None;
+        self.first_frame_worker = None;
         let _ = self.requests.send(self.request.clone());
     }
 
@@ -145,6 +245,92 @@ impl ViewerApp {
         self.resubmit();
     }
 
+    /// Sets one technique parameter (what a widget does on release, and `--set-param`): the key
+    /// joins the request's `--set` list, replacing an earlier value, and the view restarts.
+    fn apply_param(&mut self, key: &str, value: &str) {
+        let current = self.params.iter().find(|p| p.info.key == key).map(|p| p.info.value.as_str());
+        let given = self.request.set.iter().any(|kv| kv.split_once('=').is_some_and(|(k, _)| k.trim() == key));
+        if current == Some(value) && !given {
+            return;
+        }
+        self.request.set.retain(|kv| kv.split_once('=').is_none_or(|(k, _)| k.trim() != key));
+        self.request.set.push(format!("{key}={value}"));
+        if let Some(p) = self.params.iter_mut().find(|p| p.info.key == key) {
+            p.info.value = value.to_owned();
+        }
+        self.resubmit();
+    }
+
+    /// Moves the scene to `time` (the slider, play, and scripted steps): the render thread
+    /// advances its technique there, carrying a temporal history over a forward step.
+    fn set_time(&mut self, time: f32, playing: bool) {
+        if time != self.request.time {
+            self.request.time = time;
+            self.request.playing = playing;
+            self.resubmit();
+        }
+    }
+
+    /// The parameter widgets: a slider per numeric key (integer, logarithmic or clamped with a
+    /// text field beside it as the range asks), a checkbox per bool, a combo box per choice and a
+    /// text field per text key. A change applies when the slider is released (a drag does not
+    /// restart the render every frame), a box is ticked, a choice made or a field left.
+    fn param_widgets(&mut self, ui: &mut egui::Ui) {
+        let mut apply: Option<(String, String)> = None;
+        for p in &mut self.params {
+            let key = p.info.key.clone();
+            let hover = format!("default {}; {}", p.info.default, describe_kind(&p.info.kind));
+            ui.horizontal(|ui| match &p.info.kind {
+                ParamKind::Bool => {
+                    let mut on = p.info.value == "true";
+                    if ui.checkbox(&mut on, key.as_str()).on_hover_text(&hover).changed() {
+                        apply = Some((key.clone(), on.to_string()));
+                    }
+                }
+                ParamKind::Choice(choices) => {
+                    let mut chosen = p.info.value.clone();
+                    egui::ComboBox::from_label(key.as_str()).selected_text(&chosen).show_ui(ui, |ui| {
+                        for c in choices {
+                            ui.selectable_value(&mut chosen, c.clone(), c);
+                        }
+                    });
+                    if chosen != p.info.value {
+                        apply = Some((key.clone(), chosen));
+                    }
+                }
+                kind => match slider_range(kind, &p.info.default) {
+                    Some(range) => {
+                        let slider = egui::Slider::new(&mut p.number, range.lo..=range.hi)
+                            .logarithmic(range.logarithmic)
+                            .clamping(egui::SliderClamping::Edits)
+                            .update_while_editing(false)
+                            .text(key.as_str());
+                        let slider = if range.integer { slider.integer() } else { slider.smallest_positive(range.hi * 1e-4) };
+                        let r = ui.add(slider).on_hover_text(&hover);
+                        if r.drag_stopped() || (r.changed() && !r.dragged()) {
+                            apply = Some((key.clone(), format_number(p.number, range.integer)));
+                        }
+                        if range.clamped {
+                            let r = ui.add(egui::TextEdit::singleline(&mut p.text).desired_width(60.0)).on_hover_text(&hover);
+                            if r.lost_focus() {
+                                apply = Some((key.clone(), p.text.trim().to_owned()));
+                            }
+                        }
+                    }
+                    None => {
+                        ui.label(key.as_str());
+                        if ui.text_edit_singleline(&mut p.text).on_hover_text(&hover).lost_focus() {
+                            apply = Some((key.clone(), p.text.trim().to_owned()));
+                        }
+                    }
+                },
+            });
+        }
+        if let Some((key, value)) = apply {
+            self.apply_param(&key, &value);
+        }
+    }
+
     fn receive(&mut self) {
         while let Ok(u) = self.updates.try_recv() {
             match u {
@@ -153,11 +339,23 @@ impl ViewerApp {
                     self.stage = None;
                     self.error = Some(message);
                 }
-                Update::Frame { generation, which, image, passes, prepare, render, rays, memory_bytes }
-                    if generation == self.request.generation =>
-                {
+                Update::Frame {
+                    generation,
+                    which,
+                    image,
+                    passes,
+                    prepare,
+                    render,
+                    rays,
+                    memory_bytes,
+                    history,
+                    picked_up_ms,
+                    ready_ms,
+                } if generation == self.request.generation => {
                     self.stage = None;
                     if which == Which::Technique {
+                        self.first_frame_worker.get_or_insert((picked_up_ms, ready_ms));
+                        self.history = history;
                         let ms: f64 = render.iter().map(|s| s.1).sum();
                         self.throughput = (rays as f64 / (ms.max(1e-6) * 1e-3), memory_bytes);
                         self.times = (prepare, render);
@@ -165,7 +363,7 @@ impl ViewerApp {
                     self.images[which as usize] = Some((image, passes));
                 }
                 Update::Params { generation, which: Which::Technique, params } if generation == self.request.generation => {
-                    self.params = params.into_iter().collect();
+                    self.params = params.into_iter().map(ParamWidget::new).collect();
                 }
                 _ => {}
             }
@@ -335,33 +533,25 @@ impl ViewerApp {
                 ui.add(egui::Slider::new(&mut time, 0.0..=10.0).text("time (s)"));
             });
             if let Some((start, t0)) = self.playing {
-                time = t0 + start.elapsed().as_secs_f32();
+                // One step per image, as `play` renders one frame per time: the time moves on
+                // (in real time) once the last step's frame is up, or it failed.
+                let shown = self.images[0].as_ref().is_some_and(|(_, p)| *p >= 1) || self.error.is_some();
+                if shown {
+                    time = t0 + start.elapsed().as_secs_f32();
+                }
                 ui.ctx().request_repaint();
             }
             if time != self.request.time {
-                self.request.time = time;
-                self.resubmit();
+                self.set_time(time, self.playing.is_some());
             }
+            ui.label(format!(
+                "forward steps (play, scrubs of ≤ {MAX_SCRUB_STEP_S} s) carry a temporal history; \
+                 a backwards scrub or a larger jump restarts it"
+            ));
         }
         if !self.params.is_empty() {
-            ui.label("parameters (--set)");
-            let mut changed = None;
-            for (key, value) in &mut self.params {
-                ui.horizontal(|ui| {
-                    ui.label(key.as_str());
-                    let r = ui.text_edit_singleline(value);
-                    if r.lost_focus() {
-                        changed = Some(());
-                    }
-                });
-            }
-            if changed.is_some() {
-                let set: Vec<String> = self.params.iter().map(|(k, v)| format!("{k}={v}")).collect();
-                if set != self.request.set {
-                    self.request.set = set;
-                    self.resubmit();
-                }
-            }
+            ui.label("parameters (--set; hover for the default and range)");
+            self.param_widgets(ui);
         }
         let mut spp = self.request.spp;
         ui.add(egui::Slider::new(&mut spp, 1..=256).logarithmic(true).text("spp per pass"));
@@ -375,6 +565,20 @@ impl ViewerApp {
         let (rays_per_s, memory) = self.throughput;
         let rays = if rays_per_s > 0.0 { format!("{:.2} M queries/s", rays_per_s * 1e-6) } else { "no rays traced".to_owned() };
         ui.label(format!("{rays}, {:.1} MiB", memory as f64 / (1 << 20) as f64));
+        if let Some((ms, (w, h))) = self.first_frame {
+            let (picked, ready) = self.first_frame_worker.unwrap_or_default();
+            ui.label(format!(
+                "first image after the last change: {ms:.0} ms ({w}×{h}; ready after {ready:.0} ms, picked up after {picked:.0} ms)"
+            ));
+        }
+        let temporal = self.times.1.iter().any(|(s, _)| s == "accumulate");
+        let window = self.params.iter().find(|p| p.info.key == "accumulate").map(|p| p.info.value.clone());
+        if temporal {
+            let window = window.map(|w| format!(", window {w}")).unwrap_or_default();
+            ui.label(format!("temporal history: {} frames{window} ({})", self.history.frames, self.history.note));
+        } else {
+            ui.label(format!("no temporal history: {passes} passes of this time averaged; a time step starts a new average"));
+        }
         if let Some(stage) = &self.stage {
             ui.horizontal(|ui| {
                 ui.spinner();
@@ -424,9 +628,10 @@ impl ViewerApp {
         if !full {
             return;
         }
+        let passes = self.images[0].as_ref().map_or(0, |(_, p)| *p);
         if !self.scripted {
             self.scripted = true;
-            let (orbit, switch) = (script.orbit_degrees, script.switch_to.clone());
+            let (orbit, switch, set) = (script.orbit_degrees, script.switch_to.clone(), script.set_params.clone());
             if let Some(deg) = orbit {
                 let cam = &mut self.request.camera;
                 let q = glimpse_core::glam::Quat::from_axis_angle(cam.up.normalize_or(Vec3::Y), deg.to_radians());
@@ -437,9 +642,23 @@ impl ViewerApp {
                 None if orbit.is_some() => self.resubmit(),
                 None => {}
             }
+            for (key, value) in set {
+                self.apply_param(&key, &value);
+            }
             return;
         }
-        let passes = self.images[0].as_ref().map_or(0, |(_, p)| *p);
+        // Time steps, each once the view has converged at the last time (so every step gets
+        // the same number of frames, whatever the machine's speed).
+        if self.steps_done < script.step_time {
+            if passes >= self.request.max_passes {
+                self.steps_done += 1;
+                // As `play` computes its frames' times.
+                let time = self.start_time + self.steps_done as f32 / PLAY_FPS;
+                self.set_time(time, false);
+            }
+            ctx.request_repaint();
+            return;
+        }
         // The frame after the one that first shows enough passes: the texture is on screen then.
         if passes >= script.frames && !self.screenshot_requested {
             self.full_frames_seen += 1;
@@ -451,6 +670,10 @@ impl ViewerApp {
             // What to pass to `glimpse render` for the same view.
             println!("camera: {}", camera_arg(&self.request.camera));
             println!("technique: {}", self.request.technique);
+            println!("time: {}", self.request.time);
+            println!("set: {}", self.request.set.join(" "));
+            println!("history: {} frames ({})", self.history.frames, self.history.note);
+            println!("window: {:.0} ms per frame", 1e3 / self.fps.max(1e-3));
             let ctx2 = ctx.clone();
             ctx.request_screenshot(move |shot| {
                 // The image is drawn at one texel per physical pixel at the window's top-left
@@ -502,6 +725,18 @@ impl eframe::App for ViewerApp {
                     None => self.texture = Some(ui.ctx().load_texture("render", color, egui::TextureOptions::NEAREST)),
                 }
                 self.shown = state;
+                if self.first_frame.is_none() {
+                    // Request to first image uploaded (it is drawn at the end of this frame).
+                    let ms = self.request.sent.elapsed().as_secs_f64() * 1e3;
+                    self.first_frame = Some((ms, (img.width, img.height)));
+                    if self.script.is_some() {
+                        let (picked, ready) = self.first_frame_worker.unwrap_or_default();
+                        println!(
+                            "first frame: {ms:.0} ms ({} {}x{}, generation {}; render thread: picked up after {picked:.0} ms, image ready after {ready:.0} ms)",
+                            self.request.technique, img.width, img.height, self.request.generation
+                        );
+                    }
+                }
             }
             let (w, h) = self.request.size;
             let ppp = ui.ctx().pixels_per_point();

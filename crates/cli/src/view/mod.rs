@@ -49,6 +49,14 @@ pub struct ViewArgs {
     /// Scripted run: switch to this technique once the first image is shown.
     #[arg(long, value_name = "TECHNIQUE")]
     pub switch_to: Option<String>,
+    /// Scripted run: set a technique parameter once the first image is shown, as its widget
+    /// does (repeatable).
+    #[arg(long, value_name = "KEY=VALUE")]
+    pub set_param: Vec<String>,
+    /// Scripted run: then step the scene time N times by 1/30 s (play's default frame rate),
+    /// each once the view has converged, as the time slider does.
+    #[arg(long, value_name = "N", default_value_t = 0)]
+    pub step_time: u32,
     #[command(flatten)]
     pub overrides: SceneArgs,
 }
@@ -78,15 +86,25 @@ pub fn run(a: ViewArgs) -> Result<()> {
         spp: a.spp,
         set: a.set.clone(),
         max_passes: a.frames.map_or(a.passes, |f| f.max(1)),
+        playing: false,
+        sent: std::time::Instant::now(),
     };
     // The window lives as long as the process: the render thread may keep a reference to it.
     let scene: &'static glimpse_scene::Scene = Box::leak(Box::new(scene));
     let (scene_spec, overrides) = (a.scene.clone(), a.overrides.overrides());
+    let set_params = a
+        .set_param
+        .iter()
+        .map(|kv| kv.split_once('=').map(|(k, v)| (k.trim().to_owned(), v.trim().to_owned())))
+        .collect::<Option<Vec<_>>>()
+        .with_context(|| format!("--set-param {}: expected key=value", a.set_param.join(" ")))?;
     let script = a.frames.zip(a.screenshot.clone()).map(|(frames, screenshot)| app::Script {
         frames,
         screenshot,
         orbit_degrees: a.orbit,
         switch_to: a.switch_to.clone(),
+        set_params,
+        step_time: a.step_time,
     });
     let options = eframe::NativeOptions {
         viewport: eframe::egui::ViewportBuilder::default()
