@@ -17,6 +17,8 @@
 //! [`GpuContext::software_note`] says for callers to print.
 
 #[cfg(feature = "gpu")]
+pub mod ao;
+#[cfg(feature = "gpu")]
 pub mod compute;
 #[cfg(feature = "gpu")]
 pub mod context;
