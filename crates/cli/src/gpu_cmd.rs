@@ -7,6 +7,8 @@ use anyhow::Result;
 use clap::Args;
 
 #[derive(Args)]
+// Without the feature the arguments are parsed (so `--help` shows them) but never read.
+#[cfg_attr(not(feature = "gpu"), allow(dead_code))]
 pub struct GpuArgs {
     pub scene: String,
     /// GBuffer size the AO rays start from.
