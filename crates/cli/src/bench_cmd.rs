@@ -9,6 +9,9 @@ use glimpse_eval::bench::{BenchConfig, RayKind, format_table, run_bench};
 pub enum BenchCommand {
     /// The same rays through every visibility backend: build time, Mrays/s, agreement.
     Rays(RaysArgs),
+    /// The exact tracer on the GPU beside the CPU one: adapter, kernel times, rays/s, agreement
+    /// (needs `--features gpu`).
+    Gpu(crate::gpu_cmd::GpuArgs),
 }
 
 #[derive(Args)]
@@ -38,7 +41,10 @@ pub struct RaysArgs {
 }
 
 pub fn run(cmd: BenchCommand) -> Result<()> {
-    let BenchCommand::Rays(a) = cmd;
+    let a = match cmd {
+        BenchCommand::Rays(a) => a,
+        BenchCommand::Gpu(a) => return crate::gpu_cmd::run(a),
+    };
     if a.rays == 0 || a.rays > 100_000_000 {
         anyhow::bail!("--rays {}: must be between 1 and 100000000", a.rays);
     }

@@ -6,6 +6,7 @@ mod args;
 mod bench_cmd;
 mod eval_cmd;
 mod exit;
+mod gpu_cmd;
 mod play_cmd;
 mod render_cmd;
 mod scene_args;
