@@ -85,3 +85,24 @@ fn fuzz_cache_file() {
         panic!("{e}");
     }
 }
+
+/// A header whose data window claims a huge layer is refused before decoding: the EXR decoder
+/// sizes each block's output from the header, and the fuzz test once found a header that made
+/// it request 36 GiB (an abort, not an error).
+#[test]
+fn exr_with_a_huge_data_window_is_refused_not_aborted() {
+    let dir = std::env::temp_dir().join(format!("glimpse-exr-window-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("window.exr");
+    Image::from_fn(5, 3, |x, y| Vec3::new(x as f32, y as f32, 0.5)).write(&path, ToneMap::default()).unwrap();
+    let mut bytes = std::fs::read(&path).unwrap();
+    // dataWindow: name, type "box2i", size 16, then xMin, yMin, xMax, yMax (i32, little endian).
+    let at = bytes.windows(11).position(|w| w == b"dataWindow\0").expect("a dataWindow attribute") + 11 + 6 + 4;
+    // xMax only: still one chunk of 16 scan lines (so the chunk count matches), 1G pixels wide.
+    bytes[at + 8..at + 12].copy_from_slice(&0x3fff_fff0i32.to_le_bytes());
+    std::fs::write(&path, &bytes).unwrap();
+    let e = Image::read(&path).expect_err("a 1G-pixel-wide layer is refused");
+    println!("{e}");
+    assert!(e.to_string().contains("window.exr"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -3,6 +3,7 @@
 
 use glimpse_core::{Ray, Vec3A};
 use glimpse_trace::bvh::{Bvh4Node, EMPTY_SLOT, WIDTH};
+use glimpse_trace::triangle::PreparedRay;
 
 /// A 4-wide BVH node, [`Bvh4Node`] as the GPU reads it: `planes[2·axis + side]` holds the four
 /// children's minima (`side` 0) or maxima (`side` 1) along `axis`; `count > 0` marks a leaf
@@ -56,23 +57,10 @@ pub struct GpuRay {
 }
 
 impl GpuRay {
-    /// The arithmetic of `glimpse_trace::triangle::PreparedRay::new`, line for line.
+    /// The CPU tracer's own `PreparedRay` (so the same bits), laid out for the GPU.
     pub fn new(ray: &Ray, t_max: f32) -> Self {
-        let dir = Vec3A::from(ray.dir);
-        let a = dir.abs();
-        let tiny = Vec3A::splat(1e-30);
-        let inv_dir = Vec3A::ONE / Vec3A::select(a.cmpgt(tiny), dir, tiny.copysign(dir));
-        let kz = if a.x >= a.y && a.x >= a.z {
-            0
-        } else if a.y >= a.z {
-            1
-        } else {
-            2
-        };
-        let (kx, ky) = ((kz + 1) % 3, (kz + 2) % 3);
-        let d = dir.to_array();
-        let shear = Vec3A::new(d[kx], d[ky], 1.0) / d[kz];
-        Self { origin: ray.origin.to_array(), kz: kz as u32, inv_dir: inv_dir.to_array(), t_max, shear: shear.to_array(), _pad: 0 }
+        let p = PreparedRay::new(ray);
+        Self { origin: p.origin.to_array(), kz: p.kz() as u32, inv_dir: p.inv_dir.to_array(), t_max, shear: p.shear().to_array(), _pad: 0 }
     }
 }
 

@@ -42,6 +42,16 @@ impl PreparedRay {
         Self { origin, dir, inv_dir, kz, shear }
     }
 
+    /// The axis along which the direction is largest in magnitude (the paper's `kz`).
+    pub fn kz(&self) -> usize {
+        self.kz
+    }
+
+    /// `dir[kx] / dir[kz]`, `dir[ky] / dir[kz]`, `1 / dir[kz]` (the GPU tracer uploads these bits).
+    pub fn shear(&self) -> Vec3A {
+        self.shear
+    }
+
     /// Returns `(t, b1, b2)` for a hit with `0 < t < t_max`, where the hit point is
     /// `v0·(1−b1−b2) + v1·b1 + v2·b2`. Both faces are hit (no culling).
     #[inline]
