@@ -1,6 +1,7 @@
 //! `glimpse bench gpu SCENE`: the exact tracer on the GPU (glimpse-gpu, wgpu + WGSL) beside the
 //! CPU `ExactTracer` on the same AO rays from the same GBuffer: the adapter, per-kernel GPU times
-//! from timestamp queries (upload, any-hit, closest-hit), rays/s, and how many answers agree.
+//! from timestamp queries (upload, any-hit, closest-hit), rays/s, and how many answers agree;
+//! then a `roma` row: ROMA's GPU build and snapped query on the same rays (glimpse-roma `gpu`).
 //! Built only with `--features gpu`; without it the command explains how to get it.
 
 use anyhow::Result;
@@ -120,6 +121,10 @@ pub fn run(a: GpuArgs) -> Result<()> {
         100.0 - 100.0 * any_differ as f64 / n,
         100.0 - 100.0 * closest_differ as f64 / n
     );
+    // ROMA on the GPU (glimpse-roma's `gpu` feature): build and snapped any-hit on the same rays.
+    for line in glimpse_roma::gpu::bench(&ctx, &frame, &rays, a.seed)?.lines((any_kernel > 0.0).then_some(any_kernel)) {
+        println!("{line}");
+    }
     if let Some(note) = ctx.software_note() {
         println!("note: {note}");
     }

@@ -9,6 +9,8 @@
 //! 3. [`generate`]: Alg. 1, the BOM rotated into one occupancy map per candidate direction.
 //! 4. [`trace`]: Alg. 2 (snapped any-hit and closest-hit, ±z) and the un-snapped DDA.
 //! 5. [`technique`]: `ao-roma`, `gi-roma`, `soft-roma`, with [`accumulate`] over frames.
+//! 6. `gpu` (feature `gpu`): BOM, Generate and the snapped queries in WGSL compute, bit for bit
+//!    the CPU's maps (docs/gpu.md, "ROMA").
 //!
 //! [`Roma`] is one frame's structure at resolution 32, 64 or 128 (words `u32`/`u64`/`u128`,
 //! chosen at run time), and implements [`Visibility`] and [`ClosestHit`] for arbitrary rays by
@@ -16,6 +18,8 @@
 
 pub mod directions;
 pub mod generate;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod technique;
 pub mod trace;
 
@@ -311,10 +315,7 @@ impl Roma {
 
     /// [`Roma::build`] from world-space triangles within `bounds`.
     pub fn build_from_triangles(triangles: &[[Vec3; 3]], bounds: Aabb, params: &RomaParams, seed: u64, frame_index: u32) -> Roma {
-        let jitter = if params.jitter { frame_jitter(seed, frame_index) } else { Vec3::ZERO };
-        let grid = Grid::around(bounds, params.resolution, jitter);
-        let mut rng = Rng::new(seed, 0xd1_0000 + frame_index as u64);
-        let candidates = CandidateSet::draw(params.n, &mut rng, params.jitter);
+        let (grid, candidates) = frame_grid_and_candidates(bounds, params, seed, frame_index);
         match params.resolution {
             32 => Roma::R32(build_maps(triangles, grid, candidates, params)),
             64 => Roma::R64(build_maps(triangles, grid, candidates, params)),
@@ -381,6 +382,15 @@ impl Roma {
         let t = if t_max.is_finite() { t_max - 2.0 * offset } else { t_max };
         (t > 0.0).then(|| (k, sign, ray.origin + self.candidates().dirs[k] * (sign * offset), t))
     }
+}
+
+/// The grid (jittered for `frame_index`) and the candidates (drawn for `frame_index` from
+/// `seed`) of one frame: what [`Roma::build_from_triangles`] and the GPU build share.
+pub fn frame_grid_and_candidates(bounds: Aabb, params: &RomaParams, seed: u64, frame_index: u32) -> (Grid, CandidateSet) {
+    let jitter = if params.jitter { frame_jitter(seed, frame_index) } else { Vec3::ZERO };
+    let grid = Grid::around(bounds, params.resolution, jitter);
+    let mut rng = Rng::new(seed, 0xd1_0000 + frame_index as u64);
+    (grid, CandidateSet::draw(params.n, &mut rng, params.jitter))
 }
 
 fn build_maps<W: Word>(triangles: &[[Vec3; 3]], grid: Grid, candidates: CandidateSet, params: &RomaParams) -> RomaMaps<W> {
