@@ -120,6 +120,8 @@ pub fn run(a: GpuArgs) -> Result<()> {
         100.0 - 100.0 * any_differ as f64 / n,
         100.0 - 100.0 * closest_differ as f64 / n
     );
+    // The voxel array's query on the GPU, on the same rays (glimpse-voxarray's `gpu` module).
+    glimpse_voxarray::gpu::print_bench_row(&ctx, &frame, &rays, any_kernel)?;
     if let Some(note) = ctx.software_note() {
         println!("note: {note}");
     }
