@@ -125,6 +125,8 @@ pub fn run(a: GpuArgs) -> Result<()> {
     for line in glimpse_roma::gpu::bench(&ctx, &frame, &rays, a.seed)?.lines((any_kernel > 0.0).then_some(any_kernel)) {
         println!("{line}");
     }
+    // The voxel array's query on the GPU, on the same rays (glimpse-voxarray's `gpu` module).
+    glimpse_voxarray::gpu::print_bench_row(&ctx, &frame, &rays, any_kernel)?;
     if let Some(note) = ctx.software_note() {
         println!("note: {note}");
     }

@@ -236,6 +236,39 @@ pub fn srgb_decode(v: f32) -> f32 {
     if v <= 0.040_45 { v / 12.92 } else { ((v + 0.055) / 1.055).powf(2.4) }
 }
 
+/// Most bytes one EXR layer (or one of its blocks) may decode to: 16384² pixels of four f32
+/// channels, the largest frame glimpse renders.
+const EXR_MAX_BYTES: u64 = 16384 * 16384 * 16;
+
+/// An EXR's headers, read and sized before its pixels are decoded: the decoder allocates each
+/// block's output from the header's sizes, so a crafted header made it ask for 36 GiB at once
+/// (found by the fuzz test), which aborts the process instead of returning an error.
+fn check_exr_headers(path: &Path) -> Result<(), String> {
+    use exr::meta::BlockDescription;
+    let meta = crate::catch_panic::catch(|| exr::meta::MetaData::read_from_file(path, false))
+        .map_err(|m| format!("the EXR header reader failed on this file (internal panic: {m})"))?
+        .map_err(|e| format!("bad EXR header: {e}"))?;
+    for h in meta.headers.iter() {
+        if h.deep {
+            return Err("deep EXR images are not supported".into());
+        }
+        let (w, ht) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
+        let bytes_per_pixel = h.channels.bytes_per_pixel as u64;
+        let block_pixels = match h.blocks {
+            BlockDescription::ScanLines => Some(h.compression.scan_lines_per_block() as u64 * w),
+            BlockDescription::Tiles(t) => (t.tile_size.0 as u64).checked_mul(t.tile_size.1 as u64),
+        };
+        let layer = w.checked_mul(ht).and_then(|p| p.checked_mul(bytes_per_pixel));
+        let block = block_pixels.and_then(|p| p.checked_mul(bytes_per_pixel));
+        if layer.is_none_or(|b| b > EXR_MAX_BYTES) || block.is_none_or(|b| b > EXR_MAX_BYTES) {
+            return Err(format!(
+                "an EXR layer of {w}x{ht} pixels of {bytes_per_pixel} bytes is over the reader's limit of {EXR_MAX_BYTES} bytes per layer and block"
+            ));
+        }
+    }
+    Ok(())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -314,37 +347,4 @@ mod tests {
         let e = gradient().write(Path::new("/tmp/x.bmpx"), ToneMap::default()).unwrap_err().to_string();
         assert!(e.contains("unsupported"), "{e}");
     }
-}
-
-/// Most bytes one EXR layer (or one of its blocks) may decode to: 16384² pixels of four f32
-/// channels, the largest frame glimpse renders.
-const EXR_MAX_BYTES: u64 = 16384 * 16384 * 16;
-
-/// An EXR's headers, read and sized before its pixels are decoded: the decoder allocates each
-/// block's output from the header's sizes, so a crafted header made it ask for 36 GiB at once
-/// (found by the fuzz test), which aborts the process instead of returning an error.
-fn check_exr_headers(path: &Path) -> Result<(), String> {
-    use exr::meta::BlockDescription;
-    let meta = crate::catch_panic::catch(|| exr::meta::MetaData::read_from_file(path, false))
-        .map_err(|m| format!("the EXR header reader failed on this file (internal panic: {m})"))?
-        .map_err(|e| format!("bad EXR header: {e}"))?;
-    for h in meta.headers.iter() {
-        if h.deep {
-            return Err("deep EXR images are not supported".into());
-        }
-        let (w, ht) = (h.layer_size.0 as u64, h.layer_size.1 as u64);
-        let bytes_per_pixel = h.channels.bytes_per_pixel as u64;
-        let block_pixels = match h.blocks {
-            BlockDescription::ScanLines => Some(h.compression.scan_lines_per_block() as u64 * w),
-            BlockDescription::Tiles(t) => (t.tile_size.0 as u64).checked_mul(t.tile_size.1 as u64),
-        };
-        let layer = w.checked_mul(ht).and_then(|p| p.checked_mul(bytes_per_pixel));
-        let block = block_pixels.and_then(|p| p.checked_mul(bytes_per_pixel));
-        if !layer.is_some_and(|b| b <= EXR_MAX_BYTES) || !block.is_some_and(|b| b <= EXR_MAX_BYTES) {
-            return Err(format!(
-                "an EXR layer of {w}x{ht} pixels of {bytes_per_pixel} bytes is over the reader's limit of {EXR_MAX_BYTES} bytes per layer and block"
-            ));
-        }
-    }
-    Ok(())
 }

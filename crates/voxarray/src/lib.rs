@@ -11,6 +11,7 @@
 //!    rebuild by rotating the fragments of one rasterization).
 //! 6. [`technique`]: `lights-voxarray`, Alg. 4 (every light at every pixel, diffuse shading).
 //! 7. [`batch`]: Alg. 3 for batches of segments, lanes of 8 with their row loads overlapped.
+//! 8. `gpu` (feature `gpu`): Alg. 3 on the GPU, `query.wgsl`, the array uploaded once.
 //!
 //! [`VoxArray`] holds an array at resolution 32, 64 or 128 (rows `u32`/`u64`/`u128`, chosen at
 //! run time), compressed or not, and implements [`Visibility`].
@@ -21,6 +22,8 @@ pub mod directions;
 pub mod disk_cache;
 pub mod dynamic;
 pub mod extent8;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod query;
 pub mod row;
 pub mod shade8;
