@@ -72,6 +72,21 @@ impl GpuContext {
         Ok(Self { limits: device.limits(), features: device.features(), adapter, device, queue, info, errors })
     }
 
+    /// For tests: the context, or `None` after printing why `test` is skipped (no Vulkan driver
+    /// on this machine; CI installs lavapipe, so there the tests run).
+    pub fn for_test(test: &str) -> Option<GpuContext> {
+        match GpuContext::new() {
+            Ok(ctx) => {
+                println!("{test}: adapter {}", ctx.describe());
+                Some(ctx)
+            }
+            Err(e) => {
+                println!("SKIPPED {test}: {e}");
+                None
+            }
+        }
+    }
+
     /// One line naming the adapter: name, type, backend, driver.
     pub fn describe(&self) -> String {
         let i = &self.info;

@@ -12,17 +12,9 @@ use glimpse_roma::gpu::{self, GpuQuery, GpuRoma};
 use glimpse_roma::{Roma, RomaParams, with_maps};
 use glimpse_trace::{ExactTracer, GBuffer};
 
+/// The GPU context, or `None` after printing why the test is skipped.
 fn context(test: &str) -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(ctx) => {
-            println!("{test}: adapter {}", ctx.describe());
-            Some(ctx)
-        }
-        Err(e) => {
-            println!("SKIPPED {test}: {e}");
-            None
-        }
-    }
+    GpuContext::for_test(test)
 }
 
 /// The CPU build and the GPU build of one frame (jitter on, as the techniques build it).

@@ -13,17 +13,9 @@ use glimpse_voxarray::directions::row_direction;
 use glimpse_voxarray::gpu::{GpuVoxArray, GpuVoxArrayError, cpu_answers, on_cell_boundary, shadow_segments};
 use glimpse_voxarray::{CompressParams, Rows, VoxArray, VoxArrayParams};
 
+/// The GPU context, or `None` after printing why the test is skipped.
 fn context(test: &str) -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(ctx) => {
-            println!("{test}: adapter {}", ctx.describe());
-            Some(ctx)
-        }
-        Err(e) => {
-            println!("SKIPPED {test}: {e}");
-            None
-        }
-    }
+    GpuContext::for_test(test)
 }
 
 /// Random triangles in [-1, 1]³ with a floor and a back wall (as tests/batch.rs).

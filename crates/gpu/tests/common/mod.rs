@@ -6,19 +6,9 @@ use glimpse_core::{Ray, Rng, Vec3};
 use glimpse_gpu::{GpuContext, GpuHit};
 use glimpse_trace::{ExactTracer, Hit};
 
-/// The GPU context, or `None` after printing why the test is skipped (no Vulkan driver on
-/// this machine). CI installs lavapipe, so there the tests run.
+/// The GPU context, or `None` after printing why the test is skipped.
 pub fn context(test: &str) -> Option<GpuContext> {
-    match GpuContext::new() {
-        Ok(ctx) => {
-            println!("{test}: adapter {}", ctx.describe());
-            Some(ctx)
-        }
-        Err(e) => {
-            println!("SKIPPED {test}: {e}");
-            None
-        }
-    }
+    GpuContext::for_test(test)
 }
 
 /// `n` random rays through the box `[lo, hi]`: origins inside it, directions uniform on the
