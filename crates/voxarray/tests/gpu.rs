@@ -5,6 +5,8 @@
 //! (with a printed reason) when there is no GPU adapter; CI runs it on Mesa's lavapipe.
 #![cfg(feature = "gpu")]
 
+mod common;
+use common::scene;
 use glimpse_core::{Rng, Vec3};
 use glimpse_gpu::GpuContext;
 use glimpse_gpu::compute::read_back;
@@ -16,21 +18,6 @@ use glimpse_voxarray::{CompressParams, Rows, VoxArray, VoxArrayParams};
 /// The GPU context, or `None` after printing why the test is skipped.
 fn context(test: &str) -> Option<GpuContext> {
     GpuContext::for_test(test)
-}
-
-/// Random triangles in [-1, 1]³ with a floor and a back wall (as tests/batch.rs).
-fn scene(seed: u64, count: usize) -> Vec<[Vec3; 3]> {
-    let mut rng = Rng::new(seed, 0);
-    let mut v = || Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 2.0 - 1.0;
-    let mut tris = Vec::new();
-    for _ in 0..count {
-        let c = v() * 0.8;
-        tris.push([c + v() * 0.25, c + v() * 0.25, c + v() * 0.25]);
-    }
-    let q = |a: Vec3, b: Vec3, c: Vec3, d: Vec3| [[a, b, c], [a, c, d]];
-    tris.extend(q(Vec3::new(-1., -1., -1.), Vec3::new(1., -1., -1.), Vec3::new(1., -1., 1.), Vec3::new(-1., -1., 1.)));
-    tris.extend(q(Vec3::new(-1., -1., -1.), Vec3::new(1., -1., -1.), Vec3::new(1., 1., -1.), Vec3::new(-1., 1., -1.)));
-    tris
 }
 
 /// Random segments in and around the grid's cube (some starting on the floor, some long).
