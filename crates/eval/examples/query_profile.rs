@@ -1,16 +1,15 @@
 //! Where a shadow query's time goes (issue #14: "the measured ceiling with a profile"): the same
 //! shadow rays (1280×720 GBuffer, as `bench rays --kind shadow`) through the exact tracer and the
 //! compressed voxel array at its defaults, `repeats` times each, alternating, in batches of
-//! [`BATCH_RAYS`] over all threads. The array comes from the disk cache after the first run, so a
+//! [`glimpse_eval::bench::BATCH_RAYS`] over all threads. The array comes from the disk cache after the first run, so a
 //! profiler sees the queries rather than the build.
 //!
 //!     cargo run --release -p glimpse-eval --example query_profile -- SCENE [rays] [repeats] [both|exact|voxarray]
 //!     perf record -F 999 target/release/examples/query_profile many-lights 16000000 5 voxarray
 
-use glimpse_eval::bench::{BATCH_RAYS, RayKind, generate_rays};
+use glimpse_eval::bench::{RayKind, answer_batches, generate_rays};
 use glimpse_trace::{ExactTracer, GBuffer, Visibility};
 use glimpse_voxarray::{VoxArray, VoxArrayParams, disk_cache};
-use rayon::prelude::*;
 use std::time::Instant;
 
 fn main() {
@@ -45,7 +44,7 @@ fn main() {
     let time = |vis: &dyn Visibility| -> f64 {
         let mut out = vec![false; rays.len()];
         let start = Instant::now();
-        rays.par_chunks(BATCH_RAYS).zip(out.par_chunks_mut(BATCH_RAYS)).for_each(|(r, o)| vis.occluded_batch(r, o));
+        answer_batches(vis, &rays, &mut out);
         start.elapsed().as_secs_f64() * 1e9 / rays.len() as f64
     };
     let (mut e, mut v) = (Vec::new(), Vec::new());

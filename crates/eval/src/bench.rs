@@ -123,7 +123,8 @@ pub fn generate_rays(frame: &SceneFrame, gbuffer: &GBuffer, kind: RayKind, count
 /// (the exact tracer answers them one by one; ROMA vectorizes across them).
 pub const BATCH_RAYS: usize = 64;
 
-fn answer_batches(vis: &dyn Visibility, rays: &[(Ray, f32)], out: &mut [bool]) {
+/// Answers `rays` through `vis` in batches of [`BATCH_RAYS`] over all threads.
+pub fn answer_batches(vis: &dyn Visibility, rays: &[(Ray, f32)], out: &mut [bool]) {
     rays.par_chunks(BATCH_RAYS).zip(out.par_chunks_mut(BATCH_RAYS)).for_each(|(r, o)| vis.occluded_batch(r, o));
 }
 
