@@ -81,39 +81,47 @@ pub fn jump_flood<W: Word>(bom: &OccupancyMap<W>) -> Vec<u32> {
     let mut next = vec![NO_SEED; n];
     for step in steps {
         let step = step as i32;
+        // Row by row: each of the 26 neighbour offsets reads one contiguous neighbour row, so the
+        // bounds tests leave the per-cell loop. Candidates are visited in the same order for
+        // every cell (own seed, then dz, dy, dx), so ties resolve as in a cell-by-cell loop.
         next.par_chunks_mut((r * r) as usize).enumerate().for_each(|(z, slice)| {
             let z = z as u32;
+            let mut best_d = [0u32; 128];
             for y in 0..r {
-                for x in 0..r {
-                    let mut best = seeds[idx(x, y, z)];
-                    let mut best_d = if best == NO_SEED { u32::MAX } else { dist2(best, x, y, z) };
-                    for dz in [-step, 0, step] {
-                        let nz = z as i32 + dz;
-                        if nz < 0 || nz >= r as i32 {
+                let out = &mut slice[(y * r) as usize..((y + 1) * r) as usize];
+                out.copy_from_slice(&seeds[idx(0, y, z)..idx(0, y, z) + r as usize]);
+                for (x, (&b, d)) in out.iter().zip(best_d.iter_mut()).enumerate() {
+                    *d = if b == NO_SEED { u32::MAX } else { dist2(b, x as u32, y, z) };
+                }
+                for dz in [-step, 0, step] {
+                    let nz = z as i32 + dz;
+                    if nz < 0 || nz >= r as i32 {
+                        continue;
+                    }
+                    for dy in [-step, 0, step] {
+                        let ny = y as i32 + dy;
+                        if ny < 0 || ny >= r as i32 {
                             continue;
                         }
-                        for dy in [-step, 0, step] {
-                            let ny = y as i32 + dy;
-                            if ny < 0 || ny >= r as i32 {
+                        let row = &seeds[idx(0, ny as u32, nz as u32)..idx(0, ny as u32, nz as u32) + r as usize];
+                        for dx in [-step, 0, step] {
+                            if dx == 0 && dy == 0 && dz == 0 {
                                 continue;
                             }
-                            for dx in [-step, 0, step] {
-                                let nx = x as i32 + dx;
-                                if nx < 0 || nx >= r as i32 || (dx == 0 && dy == 0 && dz == 0) {
-                                    continue;
-                                }
-                                let s = seeds[idx(nx as u32, ny as u32, nz as u32)];
-                                if s != NO_SEED {
-                                    let d = dist2(s, x, y, z);
-                                    if d < best_d {
-                                        best_d = d;
-                                        best = s;
-                                    }
-                                }
+                            let lo = (-dx).max(0) as usize;
+                            let hi = (r as i32 - dx.max(0)) as usize;
+                            let from = &row[(lo as i32 + dx) as usize..(hi as i32 + dx) as usize];
+                            // Branch-free, so it vectorizes: NO_SEED unpacks to (1023, 1023,
+                            // 4095), farther than any real seed, so it can only replace another
+                            // NO_SEED and never a seed.
+                            for (k, (&s, (o, b))) in from.iter().zip(out[lo..hi].iter_mut().zip(&mut best_d[lo..hi])).enumerate() {
+                                let d = dist2(s, (lo + k) as u32, y, z);
+                                let better = d < *b;
+                                *b = if better { d } else { *b };
+                                *o = if better { s } else { *o };
                             }
                         }
                     }
-                    slice[(y * r + x) as usize] = best;
                 }
             }
         });
@@ -198,4 +206,64 @@ fn downsample_min(fine: &[u16], r: u32, subtract: u16) -> Vec<u16> {
             m.saturating_sub(subtract)
         })
         .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glimpse_core::Rng;
+
+    /// The flood cell by cell, as first written: the row-wise loop must give the same seeds,
+    /// ties included.
+    fn jump_flood_cell_by_cell<W: Word>(bom: &OccupancyMap<W>) -> Vec<u32> {
+        let r = W::BITS;
+        let idx = |x: u32, y: u32, z: u32| ((z * r + y) * r + x) as usize;
+        let mut seeds = vec![NO_SEED; (r * r * r) as usize];
+        for (z, y, x) in (0..r).flat_map(|z| (0..r).flat_map(move |y| (0..r).map(move |x| (z, y, x)))) {
+            if bom.word(x, y).has_slice(z) {
+                seeds[idx(x, y, z)] = pack(x, y, z);
+            }
+        }
+        let mut steps: Vec<i32> = std::iter::successors(Some(r as i32 / 2), |s| (*s > 1).then_some(s / 2)).collect();
+        steps.push(1);
+        for step in steps {
+            let mut next = seeds.clone();
+            for (z, y, x) in (0..r).flat_map(|z| (0..r).flat_map(move |y| (0..r).map(move |x| (z, y, x)))) {
+                let mut best = seeds[idx(x, y, z)];
+                let mut best_d = if best == NO_SEED { u32::MAX } else { dist2(best, x, y, z) };
+                for dz in [-step, 0, step] {
+                    for dy in [-step, 0, step] {
+                        for dx in [-step, 0, step] {
+                            let (nx, ny, nz) = (x as i32 + dx, y as i32 + dy, z as i32 + dz);
+                            let inside = [nx, ny, nz].iter().all(|&c| (0..r as i32).contains(&c));
+                            if !inside || (dx, dy, dz) == (0, 0, 0) {
+                                continue;
+                            }
+                            let s = seeds[idx(nx as u32, ny as u32, nz as u32)];
+                            if s != NO_SEED && dist2(s, x, y, z) < best_d {
+                                best_d = dist2(s, x, y, z);
+                                best = s;
+                            }
+                        }
+                    }
+                }
+                next[idx(x, y, z)] = best;
+            }
+            seeds = next;
+        }
+        seeds
+    }
+
+    #[test]
+    fn row_wise_flood_equals_the_cell_by_cell_flood() {
+        let mut rng = Rng::new(11, 0);
+        for count in [1, 7, 300] {
+            let mut bom = OccupancyMap::<u32>::empty();
+            for _ in 0..count {
+                bom.set(rng.below(32), rng.below(32), rng.below(32));
+            }
+            assert_eq!(jump_flood(&bom), jump_flood_cell_by_cell(&bom), "{count} seeds");
+        }
+        assert!(jump_flood(&OccupancyMap::<u32>::empty()).iter().all(|&s| s == NO_SEED));
+    }
 }
