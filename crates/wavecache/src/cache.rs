@@ -547,6 +547,8 @@ pub struct PointPlan {
     pub map_res: Vec<u32>,
     /// Σ points × paths per point (irradiance samples, or texels × samples per texel).
     pub paths: u64,
+    /// Per instance: its points × paths per point.
+    pub instance_paths: Vec<u64>,
     /// The factor the point budgets were multiplied by to fit `path_budget` (1: they fit).
     pub scale: f64,
 }
@@ -586,8 +588,8 @@ pub fn plan_points(scene: &glimpse_scene::Scene, p: &WavecacheParams, inst_class
                 ((budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round() as usize).max(p.min_points as usize)
             })
             .collect();
-        let paths = points.iter().enumerate().map(|(i, &m)| m as u64 * per_point(i)).sum();
-        PointPlan { points, map_res: map_res.clone(), paths, scale }
+        let instance_paths: Vec<u64> = points.iter().enumerate().map(|(i, &m)| m as u64 * per_point(i)).collect();
+        PointPlan { points, map_res: map_res.clone(), paths: instance_paths.iter().sum(), instance_paths, scale }
     };
     let full = plan(1.0);
     if p.path_budget == 0 || full.paths <= p.path_budget {
@@ -595,6 +597,42 @@ pub fn plan_points(scene: &glimpse_scene::Scene, p: &WavecacheParams, inst_class
     }
     // Scale both budgets by the ratio (the per-mesh minimum makes the result a little over it).
     plan(p.path_budget as f64 / full.paths as f64)
+}
+
+/// Paths in the pilot of [`mean_rays_per_path`].
+pub const PILOT_PATHS: usize = 2048;
+
+/// Mean rays one precompute path traces on this scene (at least 1): a pilot of [`PILOT_PATHS`]
+/// irradiance paths from points spread over the meshes as the plan's paths are. Why: the path
+/// budget counts paths, but a closed interior's paths bounce to `max_depth` with a shadow ray at
+/// every vertex while an open scene's escape after a bounce or two, so equal path counts cost
+/// minutes on one and seconds on the other (`sponza-interior`: 220 s under the 80M-path budget).
+pub fn mean_rays_per_path(frame: &SceneFrame, tracer: &ExactTracer, p: &WavecacheParams, seed: u64) -> f64 {
+    use rayon::prelude::*;
+    let (inst_class, areas) = classes_and_areas(frame, p);
+    let plan = plan_points(frame.scene, p, &inst_class, &areas);
+    let total: u64 = plan.instance_paths.iter().sum();
+    if total == 0 {
+        return 1.0;
+    }
+    let mut rng = glimpse_core::Rng::new(seed, 0x9170);
+    let mut starts = Vec::new();
+    for (i, &paths) in plan.instance_paths.iter().enumerate() {
+        let n = (PILOT_PATHS as f64 * paths as f64 / total as f64).round() as usize;
+        if n > 0 {
+            starts.extend(bake::world_mesh(frame, i).sample(n, &mut rng));
+        }
+    }
+    if starts.is_empty() {
+        return 1.0;
+    }
+    let integ = Integrator::new(frame, tracer, p.max_depth, p.brdf);
+    let rays: u64 = starts
+        .par_iter()
+        .enumerate()
+        .map(|(k, s)| integ.irradiance(s.position, s.normal, s.shading_normal, &mut glimpse_core::Rng::new(seed ^ 0x9170, k as u64)).1)
+        .sum();
+    (rays as f64 / starts.len() as f64).max(1.0)
 }
 
 /// The disk-cache key: the scene's geometry (world transforms, positions, normals, indices),

@@ -70,6 +70,13 @@ pub enum WoFrame {
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
 pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
 
+/// The default `ray_budget`: a little over the larger of the tuned scenes' precomputes
+/// (`bunny-glossy`: 75.8M paths at 3.62 rays per path = 274M rays; `glossy` 200M), so they and
+/// every scene with shorter paths keep their plan, while a closed interior (`sponza-interior`:
+/// 12.9 rays per path) gets proportionally fewer paths
+/// (`cargo run --release -p glimpse-wavecache --example path_length -- SCENE…`).
+pub const DEFAULT_RAY_BUDGET: u64 = 280_000_000;
+
 /// Every parameter of the technique (`--set key=value`). Paper values in the comments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WavecacheParams {
@@ -101,6 +108,10 @@ pub struct WavecacheParams {
     /// Most paths the lighting precomputation traces (`budget`; 0: no limit, the paper's
     /// profile): both point budgets shrink together to fit ([`cache::plan_points`]).
     pub path_budget: u64,
+    /// Most rays the lighting precomputation traces (`ray_budget`; 0: no limit): the path budget
+    /// becomes `ray_budget` / the scene's mean rays per path, measured by a pilot
+    /// ([`cache::mean_rays_per_path`]), when that is smaller ([`Self::effective_path_budget`]).
+    pub ray_budget: u64,
     /// Scattering vertices of the precompute paths, counted as `pt` counts them (pt's default 8).
     pub max_depth: u32,
     /// Sparsification strength for the irradiance (diffuse) points (0 = off).
@@ -154,6 +165,7 @@ impl Default for WavecacheParams {
             glossy_points: 4000,
             min_points: 16,
             path_budget: DEFAULT_PATH_BUDGET,
+            ray_budget: DEFAULT_RAY_BUDGET,
             max_depth: 8,
             sparsify: 1.0,
             min_energy: 0.0,
@@ -184,8 +196,20 @@ impl WavecacheParams {
             map_scale: 1,
             texel_samples: 128,
             path_budget: 0,
+            ray_budget: 0,
             trace_sharp: false,
             ..Self::default()
+        }
+    }
+
+    /// The path budget once the ray budget is applied at `rays_per_path` (0: no limit).
+    pub fn effective_path_budget(&self, rays_per_path: f64) -> u64 {
+        let from_rays = (self.ray_budget > 0).then(|| ((self.ray_budget as f64 / rays_per_path.max(1.0)) as u64).max(1));
+        match (self.path_budget, from_rays) {
+            (0, None) => 0,
+            (0, Some(r)) => r,
+            (b, None) => b,
+            (b, Some(r)) => b.min(r),
         }
     }
 
@@ -216,6 +240,7 @@ impl WavecacheParams {
             glossy_points: params.u32("glossy_points", base.glossy_points, 1, 50_000_000)?,
             min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
             path_budget: params.i64("budget", base.path_budget as i64, 0, 1 << 40)? as u64,
+            ray_budget: params.i64("ray_budget", base.ray_budget as i64, 0, 1 << 44)? as u64,
             max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
             sparsify: params.f32("sparsify", base.sparsify, 0.0, 1.0)?,
             min_energy: params.f32("min_energy", base.min_energy, 0.0, f32::INFINITY)?,

@@ -96,9 +96,17 @@ impl Wavecache {
                 return Ok(());
             }
         }
-        let estimate = WaveCache::estimated_bytes(&ctx.frame, &self.params);
+        // The ray budget, turned into paths at this scene's measured path length.
+        let mut p = self.params.clone();
+        if p.ray_budget > 0 {
+            let rays_per_path = stats
+                .time("path-length pilot", || crate::cache::mean_rays_per_path(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed));
+            stats.metrics.push(("rays_per_path".to_owned(), rays_per_path));
+            p.path_budget = p.effective_path_budget(rays_per_path);
+        }
+        let estimate = WaveCache::estimated_bytes(&ctx.frame, &p);
         glimpse_core::memory_budget::check("wavecache: the cache points and tree headers", estimate)?;
-        let units = WaveCache::work_units(&ctx.frame, &self.params);
+        let units = WaveCache::work_units(&ctx.frame, &p);
         let bar = if self.params.progress {
             let b = indicatif::ProgressBar::new(units);
             b.set_style(
@@ -110,7 +118,7 @@ impl Wavecache {
             indicatif::ProgressBar::hidden()
         };
         let tick = |n: u64| bar.inc(n);
-        let c = WaveCache::build(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed, key, &tick);
+        let c = WaveCache::build(&ctx.frame, &ctx.tracer, &p, self.settings.seed, key, &tick);
         bar.finish_and_clear();
         let c = c?;
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
@@ -122,9 +130,11 @@ impl Wavecache {
             if scale < 1.0 {
                 // A parameter the scene made us choose: said once, with how to undo it.
                 eprintln!(
-                    "wavecache: cache points scaled to {scale:.2}× of diffuse_points/glossy_points to fit budget={} paths ({:.0}M planned; budget=0 lifts it)",
+                    "wavecache: cache points scaled to {scale:.2}× of diffuse_points/glossy_points to fit {:.0}M paths (budget={} paths, ray_budget={} rays at {:.1} rays per path; budget=0 ray_budget=0 lift it)",
+                    p.path_budget as f64 / 1e6,
                     self.params.path_budget,
-                    paths / 1e6
+                    self.params.ray_budget,
+                    stats.metrics.iter().find(|m| m.0 == "rays_per_path").map_or(1.0, |m| m.1),
                 );
             }
         }

@@ -62,3 +62,41 @@ fn the_budget_scales_only_scenes_over_it() {
     assert_eq!(plan("glossy", &["profile=paper"]).scale, 1.0, "the paper's profile has no budget");
     assert!(WavecacheParams::read(&Params::parse(&["budget=-1"]).unwrap()).is_err());
 }
+
+/// The ray budget: the tuned `glossy` scene keeps its plan; a scene whose paths are long (the
+/// closed, lit Cornell box: light bounces to `max_depth`) gets its path budget cut by its measured
+/// rays per path; `ray_budget=0` and the paper's profile lift it.
+#[test]
+fn the_ray_budget_cuts_scenes_with_long_paths() {
+    use glimpse_trace::ExactTracer;
+    use glimpse_wavecache::DEFAULT_RAY_BUDGET;
+    use glimpse_wavecache::cache::mean_rays_per_path;
+    let measure = |spec: &str| {
+        let scene = glimpse_scene::load(spec).unwrap();
+        let frame = scene.at(0.0);
+        let tracer = ExactTracer::build(&frame);
+        let p = WavecacheParams::default();
+        let m = mean_rays_per_path(&frame, &tracer, &p, 0);
+        assert_eq!(m, mean_rays_per_path(&frame, &tracer, &p, 0), "the pilot is deterministic");
+        (m, p.effective_path_budget(m), plan(spec, &["budget=0"]).paths)
+    };
+    let (open_m, open_budget, open_paths) = measure("glossy");
+    let bunny = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bunny-glossy.toml");
+    match glimpse_scene::load(bunny) {
+        Ok(_) => {
+            let (m, budget, paths) = measure(bunny);
+            println!("bunny-glossy: {m:.2} rays per path, path budget {budget} for {paths} planned paths");
+            assert!(budget >= paths, "the tuned bunny-glossy scene must keep its plan");
+        }
+        Err(e) => println!("skipping bunny-glossy: {e}"),
+    }
+    let (closed_m, closed_budget, _) = measure("cornell-lit");
+    println!("glossy: {open_m:.2} rays per path, path budget {open_budget} for {open_paths} planned paths");
+    println!("cornell-lit: {closed_m:.2} rays per path, path budget {closed_budget}");
+    assert!(open_budget >= open_paths, "the tuned glossy scene must keep its plan");
+    assert!(closed_m > 2.0 * open_m, "a closed lit box's paths are longer than an open scene's");
+    assert!(closed_budget < DEFAULT_PATH_BUDGET && closed_budget as f64 * closed_m <= DEFAULT_RAY_BUDGET as f64 * 1.001);
+    let p = WavecacheParams::read(&Params::parse(&["ray_budget=0"]).unwrap()).unwrap();
+    assert_eq!(p.effective_path_budget(closed_m), DEFAULT_PATH_BUDGET);
+    assert_eq!(WavecacheParams::paper().effective_path_budget(closed_m), 0, "the paper's profile has no budget");
+}

@@ -1,0 +1,74 @@
+//! Where the voxel array's wrong shadow decisions come from on a scene: for every (pixel, light)
+//! pair the exact tracer and the array disagree on, the segment's length and, for a missed
+//! occluder, how far (in cells) the exact blocker is from either end.
+//!
+//! cargo run --release -p glimpse-voxarray --example error_sources -- SCENE [W H] [key=value…]
+
+use glimpse_render::Params;
+use glimpse_render::direct::{self, Shading};
+use glimpse_trace::{ExactTracer, GBuffer};
+use glimpse_voxarray::{VoxArray, VoxArrayParams};
+
+fn main() {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let scene_name = args.first().cloned().unwrap_or_else(|| "many-lights".into());
+    let w: u32 = args.get(1).and_then(|s| s.parse().ok()).unwrap_or(96);
+    let h: u32 = args.get(2).and_then(|s| s.parse().ok()).unwrap_or(64);
+    let params = Params::parse(&args[3.min(args.len())..]).expect("key=value");
+    let p = VoxArrayParams::default().read(&params).unwrap();
+    let scene = glimpse_scene::load(&scene_name).unwrap();
+    let frame = scene.at(0.0);
+    let tracer = ExactTracer::build(&frame);
+    let camera = scene.camera_or_default(w as f32 / h as f32);
+    let g = GBuffer::new(&frame, &tracer, &camera, w, h);
+    let a = VoxArray::build(&frame, &p);
+    let cell = a.grid().cell_size_world();
+    println!("{scene_name}: {} lights, cell {cell:.3} m", frame.lights.len());
+    // Histograms in cells: [0,1), [1,2), [2,4), [4,8), [8,16), [16,∞).
+    let bin = |c: f32| match c {
+        c if c < 1.0 => 0,
+        c if c < 2.0 => 1,
+        c if c < 4.0 => 2,
+        c if c < 8.0 => 3,
+        c if c < 16.0 => 4,
+        _ => 5,
+    };
+    let (mut fv_start, mut fv_end, mut fi_len, mut all_len) = ([0u64; 6], [0u64; 6], [0u64; 6], [0u64; 6]);
+    let (mut fv, mut fi, mut n, mut back) = (0u64, 0u64, 0u64, 0u64);
+    for i in 0..g.len() {
+        let Some(s) = Shading::from_gbuffer(&g, i) else { continue };
+        for light in &frame.lights {
+            let ps = direct::punctual(light, s.position, s.normal);
+            let facing = ps.wi.dot(s.normal) > 0.0;
+            let exact = tracer.closest_hit(&ps.shadow, ps.t_max);
+            let vox = a.occluded_from_surface(&ps, s.normal);
+            let len = ps.t_max.min(1e6) / cell;
+            n += 1;
+            all_len[bin(len)] += 1;
+            match (exact, vox) {
+                (Some(hit), false) => {
+                    fv += 1;
+                    back += u64::from(!facing);
+                    fv_start[bin(hit.t / cell)] += 1;
+                    fv_end[bin((ps.t_max - hit.t) / cell)] += 1;
+                }
+                (None, true) => {
+                    fi += 1;
+                    back += u64::from(!facing);
+                    fi_len[bin(len)] += 1;
+                }
+                _ => {}
+            }
+        }
+    }
+    println!(
+        "decisions {n}: wrongly visible {fv} ({:.2} %), wrongly shadowed {fi} ({:.2} %), of which light behind the surface {back}",
+        100.0 * fv as f64 / n as f64,
+        100.0 * fi as f64 / n as f64
+    );
+    println!("bins (cells):            [0,1) [1,2) [2,4) [4,8) [8,16) [16,∞)");
+    println!("segment length, all:     {all_len:?}");
+    println!("wrongly visible, blocker from start: {fv_start:?}");
+    println!("wrongly visible, blocker from light: {fv_end:?}");
+    println!("wrongly shadowed, segment length:    {fi_len:?}");
+}
