@@ -252,6 +252,10 @@ impl Technique for LightsVoxArray {
             self.structure = Some(Structure::Static(a));
         }
         stats.memory_bytes = self.structure.as_ref().map_or(0, |s| s.memory_bytes());
+        if let Some(Structure::Static(a) | Structure::Deforming(a)) = &self.structure {
+            // The grid's cell, in the stats so a report can say what resolution bounds the error.
+            stats.metrics.push(("cell_m".to_owned(), a.grid().cell_size_world() as f64));
+        }
         Ok(stats)
     }
 
