@@ -10,7 +10,10 @@ fn main() {
             Ok(scene) => match scene.environment.as_ref() {
                 Some(env) => {
                     let noise = glimpse_dvf::cosine_estimator_noise(env, rays);
-                    println!("{spec}: relative noise of {rays} rays {noise:.4} -> unshadowed={:?}", glimpse_dvf::choose_unshadowed(noise));
+                    println!(
+                        "{spec}: relative noise of {rays} rays {noise:.4} -> unshadowed={:?} in an open scene",
+                        glimpse_dvf::choose_unshadowed(noise, 0.0)
+                    );
                 }
                 None => println!("{spec}: no environment"),
             },

@@ -376,15 +376,10 @@ impl Technique for EnvDvf {
         if let (None, Some(env)) = (&self.sh, ctx.frame.scene.environment.as_ref()) {
             self.sh = Some(stats.time("sh", || project_environment(env)));
             if self.params.auto.unshadowed {
-                // Once per map, as the SH: how noisy N_r rays of it are decides E_unshad's source.
-                let noise = stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays));
-                self.params.unshadowed = crate::choose_unshadowed(noise);
-                self.map_noise = Some(noise);
+                // Once per map, as the SH: how noisy N_r rays of it are (with the field's
+                // occlusion, below) decides E_unshad's source.
+                self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
             }
-        }
-        if let Some(noise) = self.map_noise {
-            stats.metrics.push(("map_noise".to_owned(), noise as f64));
-            stats.metrics.push(("unshadowed_rays".to_owned(), (self.params.unshadowed == Unshadowed::Rays) as u8 as f64));
         }
         let reuse = self.dvf.take().map(|d| d.masks);
         // The sample budget for this frame's size and triangle count (`points=auto` …).
@@ -397,6 +392,15 @@ impl Technique for EnvDvf {
         stats.metrics.push(("points".to_owned(), p.points as f64));
         stats.metrics.push(("grid".to_owned(), p.grid as f64));
         stats.metrics.push(("build_rays".to_owned(), dvf.rays_traced as f64));
+        let occluded = dvf.occluded_cell_fraction();
+        stats.metrics.push(("occluded_cells".to_owned(), occluded as f64));
+        if let Some(noise) = self.map_noise {
+            if self.params.auto.unshadowed {
+                self.params.unshadowed = crate::choose_unshadowed(noise, occluded);
+            }
+            stats.metrics.push(("map_noise".to_owned(), noise as f64));
+            stats.metrics.push(("unshadowed_rays".to_owned(), (self.params.unshadowed == Unshadowed::Rays) as u8 as f64));
+        }
         stats.memory_bytes = stats.memory_bytes.max(dvf.memory_bytes());
         self.dvf = Some(dvf);
         Ok(stats)

@@ -60,9 +60,11 @@ fn unshadowed_follows_the_map_frequency() {
     );
     assert!(constant < 1e-3);
     assert!(overcast < sunny);
-    assert_eq!(choose_unshadowed(constant), Unshadowed::Sh);
-    assert_eq!(choose_unshadowed(overcast), Unshadowed::Sh);
-    assert_eq!(choose_unshadowed(sunny), Unshadowed::Rays);
+    assert_eq!(choose_unshadowed(constant, 0.0), Unshadowed::Sh);
+    assert_eq!(choose_unshadowed(overcast, 0.2), Unshadowed::Sh);
+    assert_eq!(choose_unshadowed(sunny, 0.0), Unshadowed::Rays);
+    // An enclosed field takes the rays even under a low-frequency map.
+    assert_eq!(choose_unshadowed(constant, 0.9), Unshadowed::Rays);
     assert!(read(&[]).auto.unshadowed && !read(&["profile=paper"]).auto.unshadowed);
     let fixed = read(&["unshadowed=sh"]);
     assert!(!fixed.auto.unshadowed && fixed.unshadowed == Unshadowed::Sh);

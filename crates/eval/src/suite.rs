@@ -264,6 +264,15 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
     if faults.black_where_lit > 0 {
         reasons.push(black_where_lit_reason(&run.technique, faults));
     }
+    let dvf_rmse = m("rmse_same_samples").or(m("rmse")).filter(|&v| run.technique == "env-dvf" && v > 0.003);
+    if let (Some(rmse), Some(points), Some(grid)) = (dvf_rmse, m("points"), m("grid"))
+        && checks.iter().any(|c| c.what.starts_with("RMSE vs env-exact") && !c.pass)
+    {
+        let floor = if points as u32 <= *glimpse_dvf::AUTO_POINTS.start() { ", the floor" } else { "" };
+        reasons.push(format!(
+            "RMSE {rmse:.4} at the automatic sample budget for {pixels} pixels: {points:.0} points{floor}, grid {grid:.0} (points=auto follows the image size; the error falls with more points: docs/suite.md)"
+        ));
+    }
     if let (Some(eps), Some(cell)) = (m("eps_s_pct").filter(|&e| run.technique == "lights-voxarray" && e > 3.0), m("cell_m")) {
         reasons.push(format!(
             "ε_s {eps:.1} % with the grid at its 128³ maximum: cells of {cell:.3} m; resolution-bound (the wrong decisions are false shadows along long segments that pass within a cell of geometry and occluders missed within the 2.5-cell start offset; 64³ → 128³ cut them by 40 %: docs/suite.md)"
@@ -681,6 +690,9 @@ mod tests {
         assert!(!cells[0].pass && cells[0].reasons.iter().any(|r| r.contains("0.3000") && r.contains("0.2000")), "{:?}", cells[0].reasons);
         let c = cell("s", &run("lights-voxarray", 0.0, 1.0, 100.0, &[("eps_s_pct", 9.8), ("cell_m", 0.133)]), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("ε_s 9.8 %") && r.contains("0.133 m")), "{:?}", c.reasons);
+        let dvf = [("map_noise", 0.05), ("rmse_same_samples", 0.02), ("points", 10_000.0), ("grid", 20.0)];
+        let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &dvf), "s", 6000, 4, 64);
+        assert!(!c.pass && c.reasons.iter().any(|r| r.contains("RMSE 0.0200") && r.contains("10000 points, the floor")), "{:?}", c.reasons);
     }
 
     /// A slower cell says why, from its own times: a build that does not pay off at this size
