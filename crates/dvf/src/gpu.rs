@@ -301,7 +301,11 @@ impl Buffers {
                 mapped_at_creation: false,
             }),
             build: uniform_buffer(ctx, "dvf build", &BuildUniform::zeroed()),
-            trace: uniform_buffer(ctx, "dvf trace params", &TraceParams { ray_count: 0, node_count: 0, _pad: 0, box_exit_scale: BOX_EXIT_SCALE }),
+            trace: uniform_buffer(
+                ctx,
+                "dvf trace params",
+                &TraceParams { ray_count: 0, node_count: 0, _pad: 0, box_exit_scale: BOX_EXIT_SCALE },
+            ),
         })
     }
 
@@ -448,7 +452,11 @@ impl GpuDvf {
         let k = mesh.indices.len();
         let limit = u32::MAX as u64;
         if k as u64 + p.points as u64 >= limit {
-            return Err(DvfGpuError::TooLarge { what: "triangles + points (the sample total's bound)", value: k as u64 + p.points as u64, limit });
+            return Err(DvfGpuError::TooLarge {
+                what: "triangles + points (the sample total's bound)",
+                value: k as u64 + p.points as u64,
+                limit,
+            });
         }
         match &mut self.scene {
             Some(s) => s.update(ctx, frame, timer)?,
@@ -571,7 +579,12 @@ impl GpuDvf {
             encoder.clear_buffer(&buffer.buffer, 0, None);
         }
         dispatch(&mut encoder, &self.areas, &areas_bind, tri_groups, timer.pass("areas"));
-        let sweep = |encoder: &mut wgpu::CommandEncoder, up: &Kernel, down: &Kernel, ups: &[wgpu::BindGroup], downs: &[wgpu::BindGroup], timer: &mut GpuTimer| {
+        let sweep = |encoder: &mut wgpu::CommandEncoder,
+                     up: &Kernel,
+                     down: &Kernel,
+                     ups: &[wgpu::BindGroup],
+                     downs: &[wgpu::BindGroup],
+                     timer: &mut GpuTimer| {
             for (l, &g) in schedule.iter().enumerate() {
                 dispatch(encoder, up, &ups[l], (g as u32, 1), timer.pass(&up.label));
             }
@@ -729,6 +742,14 @@ impl GpuEnvDvf {
             frame_index: 0,
             times: Vec::new(),
         })
+    }
+
+    /// Reads the keys anew (as [`GpuEnvDvf::new`]) without recompiling the kernels; the
+    /// environment's SH and `unshadowed=auto`'s choice are made again on the next `prepare`.
+    pub fn set_params(&mut self, params: &Params) -> Result<(), RenderError> {
+        self.params = DvfParams::default().read(params)?;
+        (self.sh, self.map_noise, self.env) = (None, None, None);
+        Ok(())
     }
 
     /// Per-kernel GPU times of the last `prepare` and `render` (timestamps; empty without them).

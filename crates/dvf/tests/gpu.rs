@@ -75,7 +75,15 @@ fn cpu_passes(ctx: &FrameContext, p: &DvfParams, seed: u64, frame_index: u32) ->
 }
 
 /// Builds on the GPU and compares every pass with the CPU's; returns (mask words, cells) compared.
-fn compare_build(ctx: &GpuContext, gpu: &mut GpuDvf, what: &str, frame: &FrameContext, p: &DvfParams, seed: u64, frame_index: u32) -> (usize, usize) {
+fn compare_build(
+    ctx: &GpuContext,
+    gpu: &mut GpuDvf,
+    what: &str,
+    frame: &FrameContext,
+    p: &DvfParams,
+    seed: u64,
+    frame_index: u32,
+) -> (usize, usize) {
     let cpu = cpu_passes(frame, p, seed, frame_index);
     let mut timer = GpuTimer::new(ctx, 64);
     gpu.build(ctx, &frame.frame, p, seed, frame_index, &mut timer).unwrap();
@@ -130,7 +138,8 @@ fn compare_build(ctx: &GpuContext, gpu: &mut GpuDvf, what: &str, frame: &FrameCo
 }
 
 /// Every pass equals the CPU's bit for bit, over the sampling, rounding, rotation, sides and
-/// scan-depth variants, on the courtyard test scene and the Cornell box.
+/// scan-depth variants, on the courtyard test scene and the Cornell box; then a second frame
+/// reuses every buffer. (One test, so lavapipe compiles the kernels once.)
 #[test]
 fn passes_equal_the_cpu_bit_for_bit() {
     let Some(ctx) = GpuContext::for_test("DVF passes") else { return };
@@ -141,10 +150,22 @@ fn passes_equal_the_cpu_bit_for_bit() {
     let variants: Vec<(&str, &FrameContext, DvfParams)> = vec![
         ("courtyard hash ceil wg2 (deep scan)", &yard, small(3000, 16, 2)),
         ("courtyard hash ceil wg64", &yard, small(3000, 16, 64)),
-        ("courtyard hammersley round sides=both", &yard, DvfParams { sampling: PointSampling::Hammersley, rounding: Rounding::Round, both_sides: true, ..small(2000, 16, 64) }),
-        ("courtyard rotation=normal octahedral=16", &yard, DvfParams { rotate_about_normal: true, octahedral: 16, ..small(2000, 12, 1024) }),
+        (
+            "courtyard hammersley round sides=both",
+            &yard,
+            DvfParams { sampling: PointSampling::Hammersley, rounding: Rounding::Round, both_sides: true, ..small(2000, 16, 64) },
+        ),
+        (
+            "courtyard rotation=normal octahedral=16",
+            &yard,
+            DvfParams { rotate_about_normal: true, octahedral: 16, ..small(2000, 12, 1024) },
+        ),
         ("cornell hash ceil wg1024 sides=both", &box_, DvfParams { both_sides: true, ..small(3000, 16, 1024) }),
-        ("cornell hammersley build_rays=24", &box_, DvfParams { sampling: PointSampling::Hammersley, build_rays: 24, ..small(2000, 8, 16) }),
+        (
+            "cornell hammersley build_rays=24",
+            &box_,
+            DvfParams { sampling: PointSampling::Hammersley, build_rays: 24, ..small(2000, 8, 16) },
+        ),
     ];
     let (mut words, mut cells) = (0, 0);
     for (i, (what, frame, p)) in variants.iter().enumerate() {
@@ -153,41 +174,46 @@ fn passes_equal_the_cpu_bit_for_bit() {
         cells += c;
     }
     println!("masks and labels equal: {words} mask words and {cells} labels over {} builds", variants.len());
-    ctx.check().unwrap();
-}
 
-/// A second frame (new frame index, same sizes) reuses every buffer and still equals the CPU.
-#[test]
-fn second_frame_reuses_the_buffers() {
-    let Some(ctx) = GpuContext::for_test("DVF second frame") else { return };
-    let mut gpu = GpuDvf::new(&ctx).unwrap();
-    let scene = courtyard();
-    let frame = FrameContext::new(&scene, 0.0, 16, 16);
+    // A second frame (new frame index, same sizes) in the same buffers, still the CPU's.
     let p = small(2500, 16, 64);
-    compare_build(&ctx, &mut gpu, "frame 0", &frame, &p, 3, 0);
+    compare_build(&ctx, &mut gpu, "frame 0", &yard, &p, 3, 0);
     let (after_first, bytes) = (gpu.reallocations(), gpu.memory_bytes());
-    compare_build(&ctx, &mut gpu, "frame 1", &frame, &p, 3, 1);
+    compare_build(&ctx, &mut gpu, "frame 1", &yard, &p, 3, 1);
     println!("reallocations after frame 0: {after_first}, after frame 1: {}; {} bytes on the GPU", gpu.reallocations(), gpu.memory_bytes());
     assert_eq!(gpu.reallocations(), after_first, "the second frame reallocated a buffer");
     assert_eq!(gpu.memory_bytes(), bytes);
+    ctx.check().unwrap();
 }
 
 /// One frame of env-dvf on the GPU against the CPU technique: same field (masks and labels bit
-/// for bit), and an image within 1e-3 of the CPU's per channel (only the environment lookup's
-/// atan2/acos and the SH evaluation are WGSL built-ins, not the CPU's libm).
+/// for bit), and an image within 2e-3 of the CPU's per channel and RMSE ≤ 2e-4 (only the
+/// environment lookup's atan2/acos and the SH evaluation are WGSL built-ins, not the CPU's libm;
+/// lavapipe measured max 7.4e-4, RMSE 7.9e-5 on pixels of mean 0.47).
 #[test]
 fn env_dvf_frame_agrees_with_the_cpu() {
     let Some(ctx) = GpuContext::for_test("env-dvf") else { return };
     let ctx = Arc::new(ctx);
     let scene = courtyard();
-    for (keys, frame_index) in [(&["rays=16", "points=2500", "grid=8", "unknown=trace"][..], 0), (&["rays=12", "points=2000", "grid=6", "unshadowed=rays", "sides=front", "unknown=skip"][..], 2)] {
+    let mut gpu: Option<GpuEnvDvf> = None;
+    for (keys, frame_index) in [
+        (&["rays=16", "points=2500", "grid=8", "unknown=trace"][..], 0),
+        (&["rays=12", "points=2000", "grid=6", "unshadowed=rays", "sides=front", "unknown=skip"][..], 2),
+    ] {
         let mut frame = FrameContext::new(&scene, 0.0, 40, 30);
         frame.frame_index = frame_index;
         let g = frame.gbuffer();
         let params = Params::parse(keys).unwrap();
         let settings = Settings { spp: 1, seed: 5 };
         let mut cpu = EnvDvf::new(&settings, &params).unwrap();
-        let mut gpu = GpuEnvDvf::new(ctx.clone(), &settings, &params).unwrap();
+        // One GpuEnvDvf, re-keyed, so lavapipe compiles its kernels once.
+        let gpu = match &mut gpu {
+            Some(g) => {
+                g.set_params(&params).unwrap();
+                g
+            }
+            None => gpu.insert(GpuEnvDvf::new(ctx.clone(), &settings, &params).unwrap()),
+        };
         let mut cpu_image = frame.image();
         cpu.prepare(&frame).unwrap();
         cpu.render(&frame, &g, &mut cpu_image).unwrap();
@@ -213,7 +239,7 @@ fn env_dvf_frame_agrees_with_the_cpu() {
         }
         assert_eq!((mask_differ, label_differ), (0, 0));
         assert!(mean > 0.01, "the image is lit");
-        assert!(worst <= 1e-3, "max |diff| {worst}");
+        assert!(worst <= 2e-3 && rmse <= 2e-4, "max |diff| {worst}, RMSE {rmse}");
     }
 }
 

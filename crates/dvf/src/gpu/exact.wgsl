@@ -4,8 +4,9 @@
 // - Products that feed a sum go through `mx` (and `mx3`): SPIR-V lets a driver contract a·b + c
 //   into an fma, which rounds once where the CPU rounds twice (lavapipe does); OR-ing the
 //   product's bits with a zero the compiler cannot see through keeps the two roundings.
-// - Division and square root are `div_exact` / `sqrt_exact`: correctly rounded with integer
-//   arithmetic (Vulkan allows 2.5 ulp in division), copied from glimpse-roma's common.wgsl.
+// - Division and square root are `div_exact` / `sqrt_exact`: correctly rounded through f64
+//   (Vulkan allows 2.5 ulp in f32 division); glimpse-roma's integer versions compile to far more
+//   code, which lavapipe's compiler takes seconds over, and the build needs f64 anyway.
 // - 64-bit integers (PCG32, SplitMix64) are vec2<u32>(lo, hi).
 // - sin and cos are glibc's `__sincosf_fma` (the CPU's libm) in f64, operation for operation,
 //   as crates/dvf/src/raybatch.rs replicates it on AVX2.
@@ -42,157 +43,30 @@ const F32_NAN: u32 = 0x7fc00000u;
 const F32_INF: u32 = 0x7f800000u;
 const SIGN_BIT: u32 = 0x80000000u;
 
-// Mantissa (with the implicit bit, normalized to [2^23, 2^24)) and biased exponent of a finite,
-// non-zero f32 given as bits; subnormals are normalized (their exponent goes below 1).
-fn unpack(bits: u32) -> vec2<i32> {
-    var e = i32((bits >> 23u) & 0xffu);
-    var m = bits & 0x7fffffu;
-    if e == 0 {
-        let s = countLeadingZeros(m) - 8u;
-        m = m << s;
-        e = 1 - i32(s);
-    } else {
-        m = m | 0x800000u;
-    }
-    return vec2<i32>(i32(m), e);
-}
-
-// Rounds the quotient or root `q` (value q · 2^-(shift) in units of the result's last place,
-// `sticky` when bits below it are non-zero) to nearest even and packs it with biased exponent `e`
-// (q has its leading one at bit 23 + shift). Handles overflow to infinity and subnormal results.
-fn round_pack(sign: u32, q_in: u32, shift_in: u32, e_in: i32, sticky_in: bool) -> f32 {
-    var e = e_in;
-    var shift = shift_in;
-    var sticky = sticky_in;
-    if e >= 255 {
-        return bitcast<f32>(sign | F32_INF);
-    }
-    if e <= 0 {
-        shift = shift + u32(1 - e);
-        e = 0;
-    }
-    if shift >= 27u {
-        return bitcast<f32>(sign);
-    }
-    var m = q_in >> shift;
-    let round = (q_in >> (shift - 1u)) & 1u;
-    sticky = sticky || (q_in & ((1u << (shift - 1u)) - 1u)) != 0u;
-    if round == 1u && (sticky || (m & 1u) == 1u) {
-        m = m + 1u;
-    }
-    if e == 0 {
-        // Subnormal (m < 2^23), or rounded up to the smallest normal (m = 2^23: exponent field 1).
-        return bitcast<f32>(sign | m);
-    }
-    if m == 0x1000000u {
-        m = 0x800000u;
-        e = e + 1;
-        if e >= 255 {
-            return bitcast<f32>(sign | F32_INF);
-        }
-    }
-    return bitcast<f32>(sign | (u32(e) << 23u) | (m & 0x7fffffu));
-}
-
-// a / b, correctly rounded (IEEE 754 round to nearest even), as the CPU's `/`.
+// a / b, correctly rounded. The f64 quotient of two f32 is never within 2^-49 (relative) of an
+// f32 rounding midpoint, unless exactly on a representable value, so rounding it to f32 gives the
+// correctly rounded quotient even if the f64 division is a few ulp off (Vulkan does not promise
+// a correctly rounded f64 division). Division by zero is spelled out (undefined in Vulkan).
 fn div_exact(a: f32, b: f32) -> f32 {
-    let ua = bitcast<u32>(a);
-    let ub = bitcast<u32>(b);
-    let sign = (ua ^ ub) & SIGN_BIT;
-    let a_abs = ua & 0x7fffffffu;
-    let b_abs = ub & 0x7fffffffu;
-    if a_abs > F32_INF || b_abs > F32_INF {
-        return bitcast<f32>(F32_NAN);
-    }
-    if a_abs == F32_INF {
-        if b_abs == F32_INF {
+    if b == 0.0 {
+        if (bitcast<u32>(a) & 0x7fffffffu) == 0u || (bitcast<u32>(a) & 0x7fffffffu) > F32_INF {
             return bitcast<f32>(F32_NAN);
         }
-        return bitcast<f32>(sign | F32_INF);
+        return bitcast<f32>(((bitcast<u32>(a) ^ bitcast<u32>(b)) & SIGN_BIT) | F32_INF);
     }
-    if b_abs == F32_INF {
-        return bitcast<f32>(sign);
-    }
-    if b_abs == 0u {
-        if a_abs == 0u {
-            return bitcast<f32>(F32_NAN);
-        }
-        return bitcast<f32>(sign | F32_INF);
-    }
-    if a_abs == 0u {
-        return bitcast<f32>(sign);
-    }
-    let pa = unpack(a_abs);
-    let pb = unpack(b_abs);
-    var ma = u32(pa.x);
-    let mb = u32(pb.x);
-    var e = pa.y - pb.y + 127;
-    if ma < mb {
-        ma = ma << 1u;
-        e = e - 1;
-    }
-    // Restoring division: 26 quotient bits (the leading one, 23 more, a round bit, one more).
-    var rem = ma;
-    var q = 0u;
-    for (var i = 0u; i < 26u; i = i + 1u) {
-        q = q << 1u;
-        if rem >= mb {
-            rem = rem - mb;
-            q = q | 1u;
-        }
-        rem = rem << 1u;
-    }
-    return round_pack(sign, q, 2u, e, rem != 0u);
+    return f32(f64(a) / f64(b));
 }
 
-// The bits (2p+1, 2p) of the 50-bit radicand m · 2^25.
-fn radicand_pair(m: u32, p: u32) -> u32 {
-    let k = 2u * p;
-    if k >= 25u {
-        return (m >> (k - 25u)) & 3u;
-    }
-    if k == 24u {
-        return (m & 1u) << 1u;
-    }
-    return 0u;
-}
-
-// sqrt(x), correctly rounded, as the CPU's `f32::sqrt` (digit-by-digit integer square root).
+// sqrt(x), correctly rounded, by the same argument (the root of an f32 is never within 2^-50 of
+// an f32 midpoint unless exact).
 fn sqrt_exact(x: f32) -> f32 {
-    let u = bitcast<u32>(x);
-    let x_abs = u & 0x7fffffffu;
-    if x_abs == 0u {
+    if x == 0.0 {
         return x;
     }
-    if x_abs > F32_INF || (u & SIGN_BIT) != 0u {
+    if x < 0.0 {
         return bitcast<f32>(F32_NAN);
     }
-    if x_abs == F32_INF {
-        return x;
-    }
-    let p = unpack(u);
-    var m = u32(p.x);
-    // x = m · 2^ex with m an integer; make ex odd so that (ex − 25) / 2 is whole.
-    var ex = p.y - 127 - 23;
-    if (ex & 1) == 0 {
-        m = m << 1u;
-        ex = ex - 1;
-    }
-    var rem = 0u;
-    var root = 0u;
-    for (var i = 0u; i < 25u; i = i + 1u) {
-        rem = (rem << 2u) | radicand_pair(m, 24u - i);
-        let trial = (root << 2u) | 1u;
-        if rem >= trial {
-            rem = rem - trial;
-            root = (root << 1u) | 1u;
-        } else {
-            root = root << 1u;
-        }
-    }
-    // root in [2^24, 2^25): 24 result bits and a round bit; the value is root · 2^((ex − 25) / 2).
-    let f = (ex - 25) / 2 + 1;
-    return round_pack(0u, root, 1u, f + 23 + 127, rem != 0u);
+    return f32(sqrt(f64(x)));
 }
 
 // ---- 64-bit integers as vec2<u32>(lo, hi) ----------------------------------------------------

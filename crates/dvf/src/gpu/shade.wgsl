@@ -142,18 +142,26 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         let pixel = octahedral_pixel(d, shade.size.w);
         let v = mask_bit(visible_base, pixel);
         let o = mask_bit(occluded_base, pixel);
+        // Label 1 (mostly occluded): trace inside the visible region, add what escapes. Label 0:
+        // trace inside the occluded region, add what is blocked. One trace and one lookup per
+        // ray in the code, so the traversal is compiled once.
+        var traced = o || (unknown && !v);
         if label == 1u {
-            // Mostly occluded: trace inside the visible region, add what escapes.
-            if (v || (unknown && !o)) && !occluded_from(origin, d) {
-                sum += radiance(d) * inv;
+            traced = v || (unknown && !o);
+        }
+        var blocked = false;
+        if traced {
+            blocked = occluded_from(origin, d);
+        }
+        let adds = traced && (blocked == (label != 1u));
+        let unshadowed_term = label != 1u && rays_unshadowed;
+        if adds || unshadowed_term {
+            let l = radiance(d) * inv;
+            if unshadowed_term {
+                unshadowed += l;
             }
-        } else {
-            if rays_unshadowed {
-                unshadowed += radiance(d) * inv;
-            }
-            // Mostly visible: trace inside the occluded region, add what is blocked.
-            if (o || (unknown && !v)) && occluded_from(origin, d) {
-                sum += radiance(d) * inv;
+            if adds {
+                sum += l;
             }
         }
     }
