@@ -64,7 +64,7 @@ pub enum DvfGpuError {
     Workgroup { asked: u32, bytes: u32, max_invocations: u32, max_bytes: u32 },
     #[error("octahedral={0}: the GPU DVF supports 1 to {MAX_RESOLUTION}")]
     Resolution(u32),
-    #[error("{what} = {value}: more than the GPU build's {limit} ")]
+    #[error("{what} = {value}: more than the GPU build allows ({limit})")]
     TooLarge { what: &'static str, value: u64, limit: u64 },
     #[error("the DVF parameters still have automatic keys ({0:?}); choose them with DvfParams::for_frame first")]
     Automatic(AutoBudget),
