@@ -13,10 +13,13 @@
 //! 4. [`labels`] (CS5): the per-cell occlusion label.
 //!
 //! The runtime ([`technique`], `env-dvf`) is Xu et al.'s Algorithm 3 with the spec's errata E2
-//! and E3 fixed.
+//! and E3 fixed. With the `gpu` feature, [`gpu`] runs the same passes and the shading in WGSL
+//! compute (the masks and labels bit for bit the CPU's).
 
 pub mod areas;
 pub mod field;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod grid;
 pub mod labels;
 pub mod points;
