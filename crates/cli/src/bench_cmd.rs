@@ -30,8 +30,9 @@ pub struct RaysArgs {
     pub radius: f32,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
-    /// Only these backends besides `exact` (comma-separated).
-    #[arg(long, value_delimiter = ',')]
+    /// Only these backends besides `exact` (comma-separated; `--backends` is the same). The GPU
+    /// rows gpu-exact, gpu-roma, gpu-voxarray run only when named (built with `--features gpu`).
+    #[arg(long, alias = "backends", value_delimiter = ',')]
     pub only: Vec<String>,
     /// Print JSON instead of a table.
     #[arg(long)]
@@ -52,8 +53,12 @@ pub fn run(cmd: BenchCommand) -> Result<()> {
         anyhow::bail!("--radius {}: must be positive", a.radius);
     }
     // A typo in --only would otherwise benchmark `exact` alone and exit 0.
-    let known: Vec<&str> = glimpse_eval::bench::backends().iter().map(|b| b.name).collect();
+    let mut known: Vec<&str> = glimpse_eval::bench::backends().iter().map(|b| b.name).collect();
+    known.extend(glimpse_eval::bench::GPU_BACKENDS);
     for name in &a.only {
+        if cfg!(not(feature = "gpu")) && glimpse_eval::bench::GPU_BACKENDS.contains(&name.as_str()) {
+            return Err(glimpse_eval::bench::gpu_backend_unavailable(name));
+        }
         if !known.contains(&name.as_str()) {
             anyhow::bail!(
                 "--only {name}: unknown backend{}; known: {}",

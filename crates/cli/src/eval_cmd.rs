@@ -47,6 +47,10 @@ pub struct EvalArgs {
     /// (HOST:PORT, default 127.0.0.1:14158).
     #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
     pub tev: Option<String>,
+    /// Where the techniques and their references run: cpu, or gpu (only the techniques with a
+    /// GPU implementation; built with `--features gpu`).
+    #[arg(long, value_enum, default_value_t = crate::device::Device::Cpu)]
+    pub device: crate::device::Device,
     #[command(flatten)]
     pub overrides: crate::scene_args::SceneArgs,
 }
@@ -62,6 +66,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
     for t in &a.techniques {
         crate::args::check_technique(t)?;
     }
+    let registry = crate::device::registry(a.device, &a.techniques.iter().map(String::as_str).collect::<Vec<_>>())?;
     let cfg = EvalConfig {
         scene_spec: a.scene,
         techniques: a.techniques,
@@ -82,7 +87,7 @@ pub fn run(a: EvalArgs) -> Result<()> {
         time_reference: false,
         tev: a.tev,
     };
-    finish(&cfg, run_eval(&cfg, &glimpse_eval::registry(), |m| eprintln!("{m}"))?)
+    finish(&cfg, run_eval(&cfg, &registry, |m| eprintln!("{m}"))?)
 }
 
 /// Every approximate technique of the five papers on the built-in `cornell-lit` (the Cornell box

@@ -4,6 +4,7 @@
 mod aov;
 mod args;
 mod bench_cmd;
+mod device;
 mod eval_cmd;
 mod exit;
 mod gpu_cmd;

@@ -34,6 +34,10 @@ pub struct PlayArgs {
     /// Stream every frame to a running tev (HOST:PORT, default 127.0.0.1:14158).
     #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
     pub tev: Option<String>,
+    /// Where the technique runs: cpu, or gpu (ao-exact, lights-exact, env-exact, ao-roma,
+    /// lights-voxarray; built with `--features gpu`).
+    #[arg(long, value_enum, default_value_t = crate::device::Device::Cpu)]
+    pub device: crate::device::Device,
     #[command(flatten)]
     pub overrides: crate::scene_args::SceneArgs,
 }
@@ -45,6 +49,7 @@ pub fn run(a: PlayArgs) -> Result<()> {
     if !(a.fps.is_finite() && a.fps > 0.0) {
         anyhow::bail!("--fps {}: must be positive", a.fps);
     }
+    let registry = crate::device::registry(a.device, &[&a.technique])?;
     let cfg = PlayConfig {
         scene_spec: a.scene,
         technique: a.technique,
@@ -62,7 +67,7 @@ pub fn run(a: PlayArgs) -> Result<()> {
         tev: a.tev,
     };
     let fmt = |ms: &std::collections::BTreeMap<String, f64>| ms.iter().map(|(k, v)| format!("{k} {v:.1}")).collect::<Vec<_>>().join(", ");
-    let frames = run_play(&cfg, &glimpse_eval::registry(), |f| println!("frame {:>4} t={:.3}s: {} ms", f.frame, f.time, fmt(&f.ms)))?;
+    let frames = run_play(&cfg, &registry, |f| println!("frame {:>4} t={:.3}s: {} ms", f.frame, f.time, fmt(&f.ms)))?;
     println!("mean over {} frames: {} ms", frames.len(), fmt(&mean_timings(&frames)));
     Ok(())
 }

@@ -45,6 +45,10 @@ pub struct RenderArgs {
     /// pass (`--film-samples N` gives N updates as the image converges).
     #[arg(long, value_name = "HOST:PORT", num_args = 0..=1, default_missing_value = glimpse_core::tev::DEFAULT_ADDRESS)]
     pub tev: Option<String>,
+    /// Where the technique runs: cpu, or gpu (ao-exact, lights-exact, env-exact, ao-roma,
+    /// lights-voxarray; built with `--features gpu`).
+    #[arg(long, value_enum, default_value_t = crate::device::Device::Cpu)]
+    pub device: crate::device::Device,
     #[command(flatten)]
     pub overrides: SceneArgs,
 }
@@ -59,7 +63,7 @@ pub fn run(a: RenderArgs) -> Result<()> {
     }
     check_technique(&a.technique)?;
     check_scene(&a.scene)?;
-    let registry = glimpse_eval::registry();
+    let registry = crate::device::registry(a.device, &[&a.technique])?;
     let mut scene = glimpse_scene::load(&a.scene)?;
     for w in &scene.warnings {
         eprintln!("warning: {w}");

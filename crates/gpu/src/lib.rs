@@ -12,6 +12,10 @@
 //! - [`tracer`]: [`GpuTracer`], any-hit and closest-hit for ray batches, with the CPU's
 //!   watertight triangle test (`trace.wgsl`).
 //! - [`ao`]: `ao-exact` on the GPU: the CPU technique's rays, traced by [`GpuTracer`].
+//! - [`replay`]: a CPU pixel shader written against `&dyn Visibility`, its rays recorded,
+//!   traced on the GPU in batches and the answers replayed.
+//! - [`references`]: `ao-exact`, `lights-exact`, `env-exact` as glimpse-render `Technique`s on
+//!   the GPU (`--device gpu`).
 //!
 //! lavapipe (Mesa's CPU Vulkan driver) runs all of it in CI; its timings mean nothing, which
 //! [`GpuContext::software_note`] says for callers to print.
@@ -26,6 +30,10 @@ pub mod context;
 pub mod error;
 #[cfg(feature = "gpu")]
 pub mod layout;
+#[cfg(feature = "gpu")]
+pub mod references;
+#[cfg(feature = "gpu")]
+pub mod replay;
 #[cfg(feature = "gpu")]
 pub mod scene;
 #[cfg(feature = "gpu")]

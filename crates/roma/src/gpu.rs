@@ -30,6 +30,10 @@ use glimpse_gpu::compute::{Kernel, ReusableBuffer, read_back, storage_buffer, st
 use glimpse_gpu::{GpuContext, GpuError, GpuTimer, KernelTime, wgpu};
 use glimpse_trace::GBuffer;
 
+/// `ao-roma` as a `Technique` on the GPU (`--device gpu`).
+#[path = "gpu_technique.rs"]
+pub mod technique;
+
 /// The one positional resolution the GPU kernels support (words of 128 bits).
 pub const GPU_RESOLUTION: u32 = 128;
 const WORKGROUP: u32 = 64;

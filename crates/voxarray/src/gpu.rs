@@ -31,6 +31,10 @@ use glimpse_scene::SceneFrame;
 use glimpse_trace::GBuffer;
 use thiserror::Error;
 
+/// `lights-voxarray` as a `Technique` on the GPU (`--device gpu`).
+#[path = "gpu_technique.rs"]
+pub mod technique;
+
 const WORKGROUP: u32 = 64;
 /// Segments per dispatch at most (bounds the reused buffers: 32 MiB of segments).
 const MAX_CHUNK: usize = 1 << 20;

@@ -1,0 +1,161 @@
+//! `--device gpu` end to end (built with `--features gpu`; CI runs it on lavapipe): each GPU
+//! technique's image beside the CPU technique's on the same scene, size, spp and seed — they
+//! trace the same rays, so they agree except where the GPU decides an edge ray differently
+//! (none on lavapipe) — plus the errors and `bench rays --backends gpu-exact`. Skipped, with the
+//! reason printed, on a machine without any Vulkan driver.
+#![cfg(feature = "gpu")]
+
+use glimpse_core::Image;
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn glimpse(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).output().expect("the glimpse binary runs")
+}
+
+fn tmp(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("glimpse-gpu-device-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    dir.join(name)
+}
+
+fn has_adapter(test: &str) -> bool {
+    glimpse_gpu::GpuContext::for_test(test).is_some()
+}
+
+fn ok(out: &Output) -> String {
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "glimpse failed:\n{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    format!("{stdout}{stderr}")
+}
+
+/// Renders `technique` on `scene` on `device` and reads the image back.
+fn render(scene: &str, technique: &str, device: &str, set: &[&str]) -> (Image, String) {
+    let out = tmp(&format!("{scene}-{technique}-{device}.exr"));
+    let mut args = vec!["render", scene, "-t", technique, "--size", "24x18", "--spp", "4", "--seed", "3", "--device", device];
+    for s in set {
+        args.extend(["--set", s]);
+    }
+    args.extend(["-o", out.to_str().unwrap()]);
+    let log = ok(&glimpse(&args));
+    (Image::read(&out).unwrap(), log)
+}
+
+/// Pixels that differ, RMSE and the largest channel difference of `a` against `b`.
+fn compare(a: &Image, b: &Image) -> (usize, f64, f32) {
+    assert_eq!((a.width, a.height), (b.width, b.height));
+    let mut differ = 0;
+    let (mut se, mut max) = (0.0f64, 0.0f32);
+    for (p, q) in a.pixels.iter().zip(&b.pixels) {
+        let d = (*p - *q).abs();
+        differ += (d.max_element() > 0.0) as usize;
+        max = max.max(d.max_element());
+        se += (d * d).element_sum() as f64 / 3.0;
+    }
+    (differ, (se / a.pixels.len() as f64).sqrt(), max)
+}
+
+fn gpu_agrees_with_cpu(scene: &str, technique: &str, set: &[&str]) {
+    let (cpu, _) = render(scene, technique, "cpu", set);
+    let (gpu, log) = render(scene, technique, "gpu", set);
+    assert!(log.contains("device: gpu, adapter"), "the adapter line: {log}");
+    let (differ, rmse, max) = compare(&gpu, &cpu);
+    let mean = cpu.pixels.iter().map(|p| p.element_sum() as f64 / 3.0).sum::<f64>() / cpu.pixels.len() as f64;
+    println!(
+        "{technique:16} on {scene}: {} pixels, mean {mean:.4}, {differ} differ, RMSE {rmse:.3e}, max diff {max:.3e}",
+        cpu.pixels.len()
+    );
+    assert!(mean > 0.0, "{technique}: a black image proves nothing");
+    // The same rays on both sides: only a GPU edge decision may move a pixel, and rarely.
+    assert!(differ * 100 <= cpu.pixels.len(), "{technique}: {differ} of {} pixels differ", cpu.pixels.len());
+    assert!(rmse <= 0.01 * mean.max(1e-3), "{technique}: RMSE {rmse} against mean {mean}");
+}
+
+#[test]
+fn gpu_references_agree_with_the_cpu_ones() {
+    if !has_adapter("gpu_references_agree_with_the_cpu_ones") {
+        return;
+    }
+    gpu_agrees_with_cpu("cornell-lit", "ao-exact", &[]);
+    gpu_agrees_with_cpu("glossy", "ao-exact", &["radius=0.5"]);
+    gpu_agrees_with_cpu("cornell-lit", "lights-exact", &[]);
+    gpu_agrees_with_cpu("many-lights", "lights-exact", &["lights=16"]);
+    gpu_agrees_with_cpu("cornell-lit", "env-exact", &["rays=16"]);
+}
+
+#[test]
+fn gpu_techniques_agree_with_the_cpu_ones() {
+    if !has_adapter("gpu_techniques_agree_with_the_cpu_ones") {
+        return;
+    }
+    gpu_agrees_with_cpu("cornell-lit", "ao-roma", &[]);
+    gpu_agrees_with_cpu("cornell-lit", "lights-voxarray", &["resolution=64", "directions=16", "disk_cache=false"]);
+}
+
+#[test]
+fn cpu_only_techniques_are_an_error_on_the_gpu() {
+    let out = tmp("refused.png");
+    let o = glimpse(&["render", "cornell-lit", "-t", "soft-exact", "--device", "gpu", "--size", "8x8", "-o", out.to_str().unwrap()]);
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    println!("{}", stderr.trim());
+    assert!(!o.status.success() && !stderr.contains("panicked"));
+    assert!(stderr.contains("technique 'soft-exact' has no GPU implementation") && stderr.contains("ao-exact, lights-exact, env-exact"));
+    // A moving scene is refused by lights-voxarray on the GPU rather than shaded with a stale array.
+    if has_adapter("cpu_only_techniques_are_an_error_on_the_gpu") {
+        let args = ["render", "cornell-dynamic", "-t", "lights-voxarray", "--device", "gpu", "--size", "8x8", "--light", "point:0,1,0:5"];
+        let o = glimpse(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+        let stderr = String::from_utf8_lossy(&o.stderr);
+        println!("{}", stderr.trim());
+        assert!(!o.status.success() && !stderr.contains("panicked") && stderr.contains("static scenes only"), "{stderr}");
+    }
+}
+
+#[test]
+fn eval_and_play_run_on_the_gpu() {
+    if !has_adapter("eval_and_play_run_on_the_gpu") {
+        return;
+    }
+    let dir = tmp("eval");
+    let log = ok(&glimpse(&[
+        "eval",
+        "cornell-lit",
+        "-t",
+        "ao-roma",
+        "--device",
+        "gpu",
+        "--size",
+        "16x12",
+        "--spp",
+        "2",
+        "--ref-spp",
+        "8",
+        "--no-sweep",
+        "--no-cache",
+        "-o",
+        dir.to_str().unwrap(),
+    ]));
+    println!("{log}");
+    assert!(log.lines().any(|l| l.starts_with("ao-roma") && l.contains("ao-exact")), "{log}");
+    assert!(dir.join("results.json").exists());
+    let log = ok(&glimpse(&["play", "cornell-lit", "-t", "ao-roma", "--device", "gpu", "--frames", "2", "--size", "16x12", "--spp", "1"]));
+    println!("{log}");
+    assert!(log.contains("frame    1") && log.contains("mean over 2 frames"), "{log}");
+}
+
+#[test]
+fn bench_rays_prints_gpu_rows_beside_the_cpu_ones() {
+    if !has_adapter("bench_rays_prints_gpu_rows_beside_the_cpu_ones") {
+        return;
+    }
+    let log = ok(&glimpse(&["bench", "rays", "cornell", "--rays", "4000", "--size", "32x32", "--backends", "roma,gpu-exact,gpu-roma"]));
+    println!("{log}");
+    let row = |name: &str| log.lines().find(|l| l.split_whitespace().next() == Some(name)).unwrap_or_else(|| panic!("no {name} row"));
+    row("exact");
+    row("roma");
+    let agreement = |name: &str| -> f64 { row(name).split_whitespace().last().unwrap().trim_end_matches('%').parse().unwrap() };
+    assert!(agreement("gpu-exact") >= 99.9, "gpu-exact agrees with exact on {} %", agreement("gpu-exact"));
+    // The GPU ROMA answers as the CPU ROMA, so it agrees with the exact tracer as much.
+    assert!((agreement("gpu-roma") - agreement("roma")).abs() <= 0.1, "gpu-roma {} vs roma {}", agreement("gpu-roma"), agreement("roma"));
+    assert!(log.contains("GPU adapter:") && log.contains("kernel time"), "{log}");
+}
