@@ -19,7 +19,7 @@ pub enum Device {
 }
 
 /// The ids `--device gpu` runs, for messages and `--help` (the same list as [`GPU_TECHNIQUES`]).
-pub const GPU_IDS: &[&str] = &["ao-exact", "lights-exact", "env-exact", "ao-roma", "lights-voxarray"];
+pub const GPU_IDS: &[&str] = &["ao-exact", "lights-exact", "env-exact", "ao-roma", "lights-voxarray", "env-dvf"];
 
 /// The registry to create techniques from on `device`, after checking that every id in `named`
 /// runs there.
@@ -78,9 +78,7 @@ mod gpu {
                 params,
             )?))
         }),
-        // env-dvf: `glimpse_dvf::gpu::GpuEnvDvf` (another port, in progress) goes here, as
-        // ("env-dvf", |scene, settings, params| Ok(Box::new(GpuEnvDvf::new(context_for("env-dvf")?, scene, settings, params)?))),
-        // with "env-dvf" added to GPU_IDS and `glimpse-dvf/gpu` to the cli's `gpu` feature.
+        ("env-dvf", |_, settings, params| Ok(Box::new(glimpse_dvf::gpu::GpuEnvDvf::new(context_for("env-dvf")?, settings, params)?))),
     ];
 
     static CONTEXT: Mutex<Option<Arc<GpuContext>>> = Mutex::new(None);

@@ -93,6 +93,24 @@ fn gpu_techniques_agree_with_the_cpu_ones() {
     gpu_agrees_with_cpu("cornell-lit", "lights-voxarray", &["resolution=64", "directions=16", "disk_cache=false"]);
 }
 
+/// `env-dvf`: the field is the CPU's bit for bit (glimpse-dvf's own GPU tests), but the shading's
+/// map lookups use WGSL's atan2/acos, so pixels differ by float rounding: bounded, not counted.
+#[test]
+fn gpu_env_dvf_is_close_to_the_cpu_one() {
+    if !has_adapter("gpu_env_dvf_is_close_to_the_cpu_one") {
+        return;
+    }
+    let set = ["rays=16", "points=2500", "grid=8"];
+    let (cpu, _) = render("cornell-lit", "env-dvf", "cpu", &set);
+    let (gpu, log) = render("cornell-lit", "env-dvf", "gpu", &set);
+    assert!(log.contains("device: gpu, adapter"), "the adapter line: {log}");
+    let (differ, rmse, max) = compare(&gpu, &cpu);
+    let mean = cpu.pixels.iter().map(|p| p.element_sum() as f64 / 3.0).sum::<f64>() / cpu.pixels.len() as f64;
+    println!("env-dvf on cornell-lit: {} pixels, mean {mean:.4}, {differ} differ, RMSE {rmse:.3e}, max diff {max:.3e}", cpu.pixels.len());
+    assert!(mean > 0.0, "a black image proves nothing");
+    assert!(rmse <= 1e-3 * mean && max <= 1e-2 * mean as f32, "env-dvf: RMSE {rmse}, max {max} against mean {mean}");
+}
+
 #[test]
 fn cpu_only_techniques_are_an_error_on_the_gpu() {
     let out = tmp("refused.png");

@@ -765,9 +765,8 @@ impl GpuEnvDvf {
         if let (None, Some(env)) = (&self.sh, frame.scene.environment.as_ref()) {
             let sh = stats.time("sh", || crate::technique::project_environment(env));
             if self.params.auto.unshadowed {
-                let noise = stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays));
-                self.params.unshadowed = crate::choose_unshadowed(noise);
-                self.map_noise = Some(noise);
+                // Chosen after the build, with the field's occlusion (as the CPU technique).
+                self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
             }
             let texels: Vec<[f32; 4]> = env.image.pixels.iter().map(|p| p.extend(0.0).to_array()).collect();
             let coeffs: Vec<[f32; 4]> = sh.coeffs.iter().map(|c| c.extend(0.0).to_array()).collect();
@@ -788,6 +787,12 @@ impl GpuEnvDvf {
         self.frame_index = frame_index;
         stats.metrics.push(("points".to_owned(), p.points as f64));
         stats.metrics.push(("grid".to_owned(), p.grid as f64));
+        if let (Some(noise), true) = (self.map_noise, self.params.auto.unshadowed) {
+            let (visible, occluded) = self.dvf.masks(&ctx)?;
+            let fraction = crate::occluded_cell_fraction(&self.dvf.labels(&ctx)?, &visible, &occluded);
+            self.params.unshadowed = crate::choose_unshadowed(noise, fraction);
+            stats.metrics.push(("occluded_cells".to_owned(), fraction as f64));
+        }
         stats.memory_bytes = self.dvf.memory_bytes() as usize;
         Ok(stats)
     }
@@ -832,7 +837,9 @@ impl GpuEnvDvf {
         let [pass_lo, pass_hi] = lo_hi(self.frame_index as u64);
         let uniform = ShadeUniform {
             size: [n as u32, p.rays, p.rotate_about_normal as u32, p.octahedral],
-            flags: [(p.unshadowed == Unshadowed::Rays) as u32, p.trace_unknown as u32, f.words32() as u32, 0],
+            // E_unshad's source is chosen after the build (`unshadowed=auto`), so it is read from
+            // the technique's parameters, not the field's.
+            flags: [(self.params.unshadowed == Unshadowed::Rays) as u32, p.trace_unknown as u32, f.words32() as u32, 0],
             cells: [f.grid.dims[0], f.grid.dims[1], f.grid.dims[2], f.cells() as u32],
             rng: [lo, hi, pass_lo, pass_hi],
             grid: [f.grid.origin.x, f.grid.origin.y, f.grid.origin.z, f.grid.cell_size_world],
