@@ -10,7 +10,7 @@
 
 use crate::replay::{self, Traced};
 use crate::{GpuContext, GpuError, GpuScene, GpuTimer, GpuTracer};
-use glimpse_core::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, hammersley, rotate_sample};
+use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Ray, Rng, Vec3};
 use glimpse_render::ao::AoExact;
 use glimpse_render::direct::{self, Shading};
@@ -208,54 +208,10 @@ impl Technique for GpuEnvExact {
         check_size("env-exact", gbuffer, out)?;
         let mut stats = Stats { memory_bytes: self.exact.memory_bytes(), ..Default::default() };
         let env = ctx.frame.scene.environment.as_ref();
-        let (n, rotate_about_normal, seed) = (self.cpu.rays, self.cpu.rotate_about_normal, self.cpu.settings.seed);
-        let n_env = if self.cpu.converged && env.is_some() { n / 2 } else { 0 };
-        let n_cos = n - n_env;
-        // `glimpse_render::env::EnvExact::render`'s pixel, with `vis` for the CPU tracer.
+        let (n, seed, cpu) = (self.cpu.rays, self.cpu.settings.seed, &self.cpu);
+        // `EnvExact`'s own pixel, with `vis` for the CPU tracer.
         let shade = |i: usize, vis: &dyn Visibility| {
-            direct_pixel(ctx, gbuffer, seed, i, |s, rng| {
-                let Some(env) = env else { return Vec3::ZERO };
-                let frame = Frame::from_z(s.shading_normal);
-                let shift = rng.next_2d();
-                let (sin_a, cos_a) = (std::f32::consts::TAU * shift.x).sin_cos();
-                let local = |k: u32| {
-                    if rotate_about_normal {
-                        let d = cosine_hemisphere(hammersley(k, n_cos));
-                        Vec3::new(d.x * cos_a - d.y * sin_a, d.x * sin_a + d.y * cos_a, d.z)
-                    } else {
-                        cosine_hemisphere(rotate_sample(hammersley(k, n_cos), shift))
-                    }
-                };
-                let mut sum = Vec3::ZERO;
-                for k in 0..n_cos {
-                    let d = frame.to_world(local(k));
-                    let cos = s.cos(d);
-                    if cos <= 0.0 {
-                        continue;
-                    }
-                    let w = if n_env > 0 {
-                        let p_cos = n_cos as f32 * cosine_hemisphere_pdf(cos);
-                        direct::power_heuristic(p_cos, n_env as f32 * env.pdf(d))
-                    } else {
-                        1.0
-                    };
-                    if !vis.occluded(&s.spawn(d), f32::INFINITY) {
-                        sum += env.radiance(d) * (w / n_cos as f32);
-                    }
-                }
-                for _ in 0..n_env {
-                    let (d, l, pdf) = env.sample(rng.next_2d());
-                    let cos = s.cos(d);
-                    if pdf <= 0.0 || cos <= 0.0 {
-                        continue;
-                    }
-                    let w = direct::power_heuristic(n_env as f32 * pdf, n_cos as f32 * cosine_hemisphere_pdf(cos));
-                    if !vis.occluded(&s.spawn(d), f32::INFINITY) {
-                        sum += l * (w * cos / (PI * pdf * n_env as f32));
-                    }
-                }
-                s.albedo * sum
-            })
+            direct_pixel(ctx, gbuffer, seed, i, |s, rng| env.map_or(Vec3::ZERO, |env| cpu.shade_point(s, env, rng, vis).0))
         };
         stats.rays = stats.time("shade", || self.exact.shade("env-exact", ctx, out, n as usize, shade))?;
         Ok(stats)

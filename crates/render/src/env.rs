@@ -19,9 +19,9 @@
 use crate::direct::{self, Shading};
 use crate::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_core::sampling::{cosine_hemisphere, cosine_hemisphere_pdf, hammersley, rotate_sample};
-use glimpse_core::{Frame, Image, Vec3};
-use glimpse_scene::Scene;
-use glimpse_trace::GBuffer;
+use glimpse_core::{Frame, Image, Rng, Vec3};
+use glimpse_scene::{Environment, Scene};
+use glimpse_trace::{GBuffer, Visibility};
 use std::f32::consts::PI;
 
 /// The DVF paper's N_r.
@@ -80,61 +80,69 @@ impl Technique for EnvExact {
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
         let mut stats = Stats { memory_bytes: ctx.tracer.memory_bytes(), ..Default::default() };
         let env = ctx.frame.scene.environment.as_ref();
-        let (n, rotate_about_normal) = (self.rays, self.rotate_about_normal);
-        // Strategy counts: all cosine-weighted, or cosine + importance-sampled map (MIS).
-        let n_env = if self.converged && env.is_some() { n / 2 } else { 0 };
-        let n_cos = n - n_env;
         stats.rays = stats.time("shade", || {
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng| {
                 let (Some(s), Some(env)) = (Shading::from_gbuffer(gbuffer, i), env) else {
                     return (Vec3::ZERO, 0);
                 };
-                let frame = Frame::from_z(s.shading_normal);
-                let shift = rng.next_2d();
-                let (sin_a, cos_a) = (std::f32::consts::TAU * shift.x).sin_cos();
-                let local = |k: u32| {
-                    if rotate_about_normal {
-                        let d = cosine_hemisphere(hammersley(k, n_cos));
-                        Vec3::new(d.x * cos_a - d.y * sin_a, d.x * sin_a + d.y * cos_a, d.z)
-                    } else {
-                        cosine_hemisphere(rotate_sample(hammersley(k, n_cos), shift))
-                    }
-                };
-                let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
-                // Cosine-weighted: f cos / pdf = ρ, so each unblocked ray adds ρ L (ρ applied last).
-                for k in 0..n_cos {
-                    let d = frame.to_world(local(k));
-                    let cos = s.cos(d);
-                    if cos <= 0.0 {
-                        continue;
-                    }
-                    let w = if n_env > 0 {
-                        let p_cos = n_cos as f32 * cosine_hemisphere_pdf(cos);
-                        direct::power_heuristic(p_cos, n_env as f32 * env.pdf(d))
-                    } else {
-                        1.0
-                    };
-                    rays += 1;
-                    if !ctx.tracer.occluded(&s.spawn(d), f32::INFINITY) {
-                        sum += env.radiance(d) * (w / n_cos as f32);
-                    }
-                }
-                // Importance-sampled map: (ρ/π) L cos / pdf, weighted.
-                for _ in 0..n_env {
-                    let (d, l, pdf) = env.sample(rng.next_2d());
-                    let cos = s.cos(d);
-                    if pdf <= 0.0 || cos <= 0.0 {
-                        continue;
-                    }
-                    let w = direct::power_heuristic(n_env as f32 * pdf, n_cos as f32 * cosine_hemisphere_pdf(cos));
-                    rays += 1;
-                    if !ctx.tracer.occluded(&s.spawn(d), f32::INFINITY) {
-                        sum += l * (w * cos / (PI * pdf * n_env as f32));
-                    }
-                }
-                (s.albedo * sum, rays)
+                self.shade_point(&s, env, rng, &ctx.tracer)
             })
         })?;
         Ok(stats)
+    }
+}
+
+impl EnvExact {
+    /// One shading point's reflected environment light and the rays it traced through `vis`
+    /// (the CPU tracer here; the GPU port replays the GPU's answers through the same code).
+    pub fn shade_point<V: Visibility + ?Sized>(&self, s: &Shading, env: &Environment, rng: &mut Rng, vis: &V) -> (Vec3, u64) {
+        let (n, rotate_about_normal) = (self.rays, self.rotate_about_normal);
+        // Strategy counts: all cosine-weighted, or cosine + importance-sampled map (MIS).
+        let n_env = if self.converged { n / 2 } else { 0 };
+        let n_cos = n - n_env;
+        let frame = Frame::from_z(s.shading_normal);
+        let shift = rng.next_2d();
+        let (sin_a, cos_a) = (std::f32::consts::TAU * shift.x).sin_cos();
+        let local = |k: u32| {
+            if rotate_about_normal {
+                let d = cosine_hemisphere(hammersley(k, n_cos));
+                Vec3::new(d.x * cos_a - d.y * sin_a, d.x * sin_a + d.y * cos_a, d.z)
+            } else {
+                cosine_hemisphere(rotate_sample(hammersley(k, n_cos), shift))
+            }
+        };
+        let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
+        // Cosine-weighted: f cos / pdf = ρ, so each unblocked ray adds ρ L (ρ applied last).
+        for k in 0..n_cos {
+            let d = frame.to_world(local(k));
+            let cos = s.cos(d);
+            if cos <= 0.0 {
+                continue;
+            }
+            let w = if n_env > 0 {
+                let p_cos = n_cos as f32 * cosine_hemisphere_pdf(cos);
+                direct::power_heuristic(p_cos, n_env as f32 * env.pdf(d))
+            } else {
+                1.0
+            };
+            rays += 1;
+            if !vis.occluded(&s.spawn(d), f32::INFINITY) {
+                sum += env.radiance(d) * (w / n_cos as f32);
+            }
+        }
+        // Importance-sampled map: (ρ/π) L cos / pdf, weighted.
+        for _ in 0..n_env {
+            let (d, l, pdf) = env.sample(rng.next_2d());
+            let cos = s.cos(d);
+            if pdf <= 0.0 || cos <= 0.0 {
+                continue;
+            }
+            let w = direct::power_heuristic(n_env as f32 * pdf, n_cos as f32 * cosine_hemisphere_pdf(cos));
+            rays += 1;
+            if !vis.occluded(&s.spawn(d), f32::INFINITY) {
+                sum += l * (w * cos / (PI * pdf * n_env as f32));
+            }
+        }
+        (s.albedo * sum, rays)
     }
 }
