@@ -19,7 +19,7 @@ pub enum Device {
 }
 
 /// The ids `--device gpu` runs, for messages and `--help` (the same list as [`GPU_TECHNIQUES`]).
-pub const GPU_IDS: &[&str] = &["ao-exact", "lights-exact", "env-exact", "ao-roma", "lights-voxarray", "env-dvf"];
+pub const GPU_IDS: &[&str] = &["ao-exact", "lights-exact", "env-exact", "ao-roma", "soft-roma", "gi-roma", "lights-voxarray", "env-dvf"];
 
 /// The registry to create techniques from on `device`, after checking that every id in `named`
 /// runs there.
@@ -70,6 +70,12 @@ mod gpu {
         ("ao-roma", |scene, settings, params| {
             Ok(Box::new(glimpse_roma::gpu::technique::GpuAoRoma::new(context_for("ao-roma")?, scene, settings, params)?))
         }),
+        ("soft-roma", |scene, settings, params| {
+            Ok(Box::new(glimpse_roma::gpu::technique::GpuSoftRoma::new(context_for("soft-roma")?, scene, settings, params)?))
+        }),
+        ("gi-roma", |scene, settings, params| {
+            Ok(Box::new(glimpse_roma::gpu::technique::GpuGiRoma::new(context_for("gi-roma")?, scene, settings, params)?))
+        }),
         ("lights-voxarray", |scene, settings, params| {
             Ok(Box::new(glimpse_voxarray::gpu::technique::GpuLightsVoxArray::new(
                 context_for("lights-voxarray")?,
@@ -102,15 +108,24 @@ mod gpu {
         shared_context().map_err(|e| RenderError::Unsupported { technique: technique.into(), message: format!("--device gpu: {e}") })
     }
 
-    /// The GPU techniques under their CPU entries' ids, families, references and descriptions.
+    /// The GPU techniques under their CPU entries' ids, families, references and descriptions,
+    /// then the CPU entries of the references that have no GPU port (`soft-exact`, `gi-exact`):
+    /// `eval` renders a technique's reference from this registry. Naming one of those with `-t`
+    /// is still refused ([`super::registry`] checks the names against [`super::GPU_IDS`]).
     pub fn registry() -> Result<Registry> {
         // Open the adapter now: a machine without one fails before any work.
         shared_context().map_err(|e| anyhow::anyhow!("--device gpu: {e}"))?;
         let cpu = glimpse_eval::registry();
-        let entries = GPU_TECHNIQUES
+        let mut entries = GPU_TECHNIQUES
             .iter()
             .map(|&(id, create)| Ok(TechniqueInfo { create, ..cpu.get(id)?.clone() }))
             .collect::<Result<Vec<_>, RenderError>>()?;
+        let cpu_references: Vec<&str> = entries.iter().filter_map(|t| t.reference).filter(|r| !super::GPU_IDS.contains(r)).collect();
+        for id in cpu_references {
+            if !entries.iter().any(|t| t.id == id) {
+                entries.push(cpu.get(id)?.clone());
+            }
+        }
         Ok(Registry::new(entries))
     }
 }

@@ -90,6 +90,9 @@ fn gpu_techniques_agree_with_the_cpu_ones() {
         return;
     }
     gpu_agrees_with_cpu("cornell-lit", "ao-roma", &[]);
+    gpu_agrees_with_cpu("cornell-lit", "soft-roma", &[]);
+    gpu_agrees_with_cpu("cornell-lit", "soft-roma", &["snap=true"]);
+    gpu_agrees_with_cpu("cornell-lit", "gi-roma", &[]);
     gpu_agrees_with_cpu("cornell-lit", "lights-voxarray", &["resolution=64", "directions=16", "disk_cache=false"]);
 }
 
@@ -126,6 +129,16 @@ fn cpu_only_techniques_are_an_error_on_the_gpu() {
         let stderr = String::from_utf8_lossy(&o.stderr);
         println!("{}", stderr.trim());
         assert!(!o.status.success() && !stderr.contains("panicked") && stderr.contains("static scenes only"), "{stderr}");
+        // What the ROMA kernels do not support is an error naming the parameter.
+        for (technique, set, key) in
+            [("soft-roma", "resolution=64", "resolution=64"), ("gi-roma", "voxelization=conservative", "voxelization")]
+        {
+            let args = ["render", "cornell-lit", "-t", technique, "--device", "gpu", "--size", "8x8", "--set", set];
+            let o = glimpse(&[&args[..], &["-o", out.to_str().unwrap()]].concat());
+            let stderr = String::from_utf8_lossy(&o.stderr);
+            println!("{}", stderr.trim());
+            assert!(!o.status.success() && !stderr.contains("panicked") && stderr.contains(key), "{stderr}");
+        }
     }
 }
 
@@ -139,7 +152,7 @@ fn eval_and_play_run_on_the_gpu() {
         "eval",
         "cornell-lit",
         "-t",
-        "ao-roma",
+        "ao-roma,soft-roma,gi-roma",
         "--device",
         "gpu",
         "--size",
@@ -155,6 +168,9 @@ fn eval_and_play_run_on_the_gpu() {
     ]));
     println!("{log}");
     assert!(log.lines().any(|l| l.starts_with("ao-roma") && l.contains("ao-exact")), "{log}");
+    // References without a GPU port (soft-exact, gi-exact) render on the CPU for the comparison.
+    assert!(log.lines().any(|l| l.starts_with("soft-roma") && l.contains("soft-exact")), "{log}");
+    assert!(log.lines().any(|l| l.starts_with("gi-roma") && l.contains("gi-exact")), "{log}");
     assert!(dir.join("results.json").exists());
     let log = ok(&glimpse(&["play", "cornell-lit", "-t", "ao-roma", "--device", "gpu", "--frames", "2", "--size", "16x12", "--spp", "1"]));
     println!("{log}");

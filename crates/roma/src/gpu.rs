@@ -1,5 +1,6 @@
 //! ROMA on the GPU (feature `gpu`; docs/gpu.md, "ROMA"): the BOM (§3.1), Generate (Alg. 1) and
-//! the snapped any-hit and closest-hit of Alg. 2 as WGSL compute kernels (`gpu/*.wgsl`, beside
+//! the snapped any-hit and closest-hit of Alg. 2 and the un-snapped DDA any-hit as WGSL compute
+//! kernels (`gpu/*.wgsl`, beside
 //! this file), on the [`glimpse_gpu`] helper API.
 //!
 //! The GPU build is the CPU build, bit for bit: the grid, the jitter and the candidates come from
@@ -19,7 +20,8 @@
 //!
 //! Kernels: `voxelize` (one invocation per triangle, axis pass and texel row; atomic OR into the
 //! BOM's u32s), `generate` (one per texel of every OM), `query` (one per ray: stratum selection,
-//! transform, slice range, bit test; modes any-hit, `occluded_ray`, closest hit).
+//! transform, slice range, bit test; modes any-hit, `occluded_ray`, closest hit), `dda` (one per
+//! segment: `RomaMaps::any_hit_unsnapped`, the clip and the texel walk).
 
 use crate::directions::CandidateSet;
 use crate::grid::om_axes;
@@ -30,7 +32,7 @@ use glimpse_gpu::compute::{Kernel, ReusableBuffer, read_back, storage_buffer, st
 use glimpse_gpu::{GpuContext, GpuError, GpuTimer, KernelTime, wgpu};
 use glimpse_trace::GBuffer;
 
-/// `ao-roma` as a `Technique` on the GPU (`--device gpu`).
+/// `ao-roma`, `soft-roma` and `gi-roma` as `Technique`s on the GPU (`--device gpu`).
 #[path = "gpu_technique.rs"]
 pub mod technique;
 
@@ -42,6 +44,7 @@ const COMMON: &str = include_str!("gpu/common.wgsl");
 const BOM: &str = include_str!("gpu/bom.wgsl");
 const GENERATE: &str = include_str!("gpu/generate.wgsl");
 const QUERY: &str = include_str!("gpu/query.wgsl");
+const DDA: &str = include_str!("gpu/dda.wgsl");
 
 /// `fast_math::atan_unit`'s coefficients (checked against it by a unit test).
 const ATAN: [f32; 6] = [0.999_977_26, -0.332_623_47, 0.193_543_46, -0.116_432_87, 0.052_653_32, -0.011_721_2];
@@ -117,6 +120,11 @@ impl GpuQuery {
     pub fn new(origin: Vec3, dir: Vec3, t_max: f32) -> Self {
         Self { origin: origin.to_array(), t_max, dir: dir.to_array(), pad: 0.0 }
     }
+
+    /// The segment `from → to` as the `dda` kernel reads it (`origin` = from, `dir` = to).
+    pub fn segment(from: Vec3, to: Vec3) -> Self {
+        Self::new(from, to, 0.0)
+    }
 }
 
 /// What the query kernel computes per ray (`counts.w` in `query.wgsl`).
@@ -129,6 +137,14 @@ enum Mode {
     Occluded = 1,
     /// `select(dir)`, then [`crate::RomaMaps::closest_hit_snapped`].
     ClosestHit = 2,
+}
+
+/// Which kernel a batch runs, and the `counts.w` it reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Pass {
+    Query(Mode),
+    /// The `dda` kernel with at most this many texel fetches.
+    Dda(u32),
 }
 
 /// One frame's ROMA in GPU buffers, and what the CPU made for it.
@@ -149,6 +165,7 @@ pub struct GpuRoma {
     voxelize: Kernel,
     generate: Kernel,
     query: Kernel,
+    dda: Kernel,
     frame: Option<GpuRomaFrame>,
     queries: Option<ReusableBuffer>,
     results: Option<ReusableBuffer>,
@@ -188,6 +205,7 @@ impl GpuRoma {
             voxelize: Kernel::new(ctx, "roma bom", &source(BOM), "voxelize")?,
             generate: Kernel::new(ctx, "roma generate", &source(GENERATE), "generate")?,
             query: Kernel::new(ctx, "roma query", &source(QUERY), "query")?,
+            dda: Kernel::new(ctx, "roma dda", &format!("{}{DDA}", source(QUERY)), "dda")?,
             frame: None,
             queries: None,
             results: None,
@@ -284,29 +302,40 @@ impl GpuRoma {
     /// Snapped any-hit of `(origin, dir, t_max)`: the stratum of `dir`, then
     /// [`crate::RomaMaps::any_hit_snapped`] from `origin` as given (no offset), as `ao-roma` does.
     pub fn any_hit_snapped(&mut self, ctx: &GpuContext, queries: &[GpuQuery]) -> Result<Vec<bool>, GpuError> {
-        Ok(self.run(ctx, Mode::AnyHit, queries)?.into_iter().map(|r| r != 0).collect())
+        Ok(self.run(ctx, Pass::Query(Mode::AnyHit), queries)?.into_iter().map(|r| r != 0).collect())
     }
 
     /// [`crate::RomaMaps::occluded_ray`] (the [`glimpse_trace::Visibility`] answer) for each ray.
     pub fn occluded(&mut self, ctx: &GpuContext, rays: &[(Ray, f32)]) -> Result<Vec<bool>, GpuError> {
         let queries: Vec<GpuQuery> = rays.iter().map(|(r, t)| GpuQuery::new(r.origin, r.dir, *t)).collect();
-        Ok(self.run(ctx, Mode::Occluded, &queries)?.into_iter().map(|r| r != 0).collect())
+        Ok(self.run(ctx, Pass::Query(Mode::Occluded), &queries)?.into_iter().map(|r| r != 0).collect())
     }
 
     /// Snapped closest hit of `(origin, dir, t_max)`: the stratum of `dir`, then
     /// [`crate::RomaMaps::closest_hit_snapped`] (world distance along the snapped direction).
     pub fn closest_hit_snapped(&mut self, ctx: &GpuContext, queries: &[GpuQuery]) -> Result<Vec<Option<f32>>, GpuError> {
-        Ok(self.run(ctx, Mode::ClosestHit, queries)?.into_iter().map(|r| (r != u32::MAX).then(|| f32::from_bits(r))).collect())
+        Ok(self.run(ctx, Pass::Query(Mode::ClosestHit), queries)?.into_iter().map(|r| (r != u32::MAX).then(|| f32::from_bits(r))).collect())
+    }
+
+    /// [`crate::RomaMaps::any_hit_unsnapped`] of each segment `from → to` (world; made with
+    /// [`GpuQuery::segment`]): the OM of its direction's stratum, a DDA of at most `max_steps`
+    /// texel fetches.
+    pub fn any_hit_unsnapped(&mut self, ctx: &GpuContext, segments: &[GpuQuery], max_steps: u32) -> Result<Vec<bool>, GpuError> {
+        Ok(self.run(ctx, Pass::Dda(max_steps), segments)?.into_iter().map(|r| r != 0).collect())
     }
 
     /// Runs the query kernel over `queries` in chunks within the binding and dispatch limits.
-    fn run(&mut self, ctx: &GpuContext, mode: Mode, queries: &[GpuQuery]) -> Result<Vec<u32>, GpuError> {
+    fn run(&mut self, ctx: &GpuContext, pass: Pass, queries: &[GpuQuery]) -> Result<Vec<u32>, GpuError> {
         let f = self.frame.as_ref().ok_or_else(|| GpuError::Validation("GPU ROMA queried before it was built".into()))?;
         let query_bytes = size_of::<GpuQuery>() as u64;
         let chunk = (ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size) / query_bytes).clamp(1, 1 << 22) as usize;
         let mut out = Vec::with_capacity(queries.len());
         let mut timer = GpuTimer::new(ctx, queries.len().div_ceil(chunk).max(1) as u32);
-        let name = if mode == Mode::ClosestHit { "roma closest-hit" } else { "roma any-hit" };
+        let (kernel, name, w) = match pass {
+            Pass::Query(Mode::ClosestHit) => (&self.query, "roma closest-hit", Mode::ClosestHit as u32),
+            Pass::Query(mode) => (&self.query, "roma any-hit", mode as u32),
+            Pass::Dda(steps) => (&self.dda, "roma dda", steps),
+        };
         for part in queries.chunks(chunk) {
             let q_buf = match &mut self.queries {
                 Some(b) => {
@@ -331,13 +360,13 @@ impl GpuRoma {
                 ctx,
                 "roma query params",
                 &QueryParams {
-                    counts: [part.len() as u32, stride, f.candidates.n, mode as u32],
+                    counts: [part.len() as u32, stride, f.candidates.n, w],
                     scales: [f.grid.cell_size_world, f.origin_offset_cells, 0.0, 0.0],
                 },
             );
-            let bind = self.query.bind(ctx, &[(0, &uniform), (1, &q_buf.buffer), (2, &f.to_map_rows), (3, &f.maps), (4, &r_buf.buffer)]);
+            let bind = kernel.bind(ctx, &[(0, &uniform), (1, &q_buf.buffer), (2, &f.to_map_rows), (3, &f.maps), (4, &r_buf.buffer)]);
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            dispatch_2d(&mut encoder, &self.query, &bind, (gx, gy), timer.pass(name));
+            dispatch_2d(&mut encoder, kernel, &bind, (gx, gy), timer.pass(name));
             ctx.queue.submit([encoder.finish()]);
             out.extend(read_back::<u32>(ctx, &r_buf.buffer, part.len())?);
         }

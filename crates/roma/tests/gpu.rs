@@ -180,6 +180,64 @@ fn snapped_queries_agree_with_the_cpu() {
     }
 }
 
+/// Un-snapped DDA any-hit (`soft-roma`'s default query) agrees with the CPU's
+/// `any_hit_unsnapped`: random segments through and beyond the scene box (short and long, so the
+/// step limit both ends and cuts walks), and `soft-roma`'s light segments from a GBuffer, at
+/// three step limits.
+#[test]
+fn dda_queries_agree_with_the_cpu() {
+    let Some(ctx) = context("dda queries") else { return };
+    let mut gpu = GpuRoma::new(&ctx).unwrap();
+    for (name, n) in [("cornell-lit", 8), ("glossy", 4)] {
+        let scene = glimpse_scene::load(name).unwrap();
+        let params = RomaParams { n, ..RomaParams::default() };
+        let cpu = builds(&ctx, &mut gpu, &scene, &params, 5, 1);
+        let frame = scene.at(0.0);
+        let b = frame.bounds;
+        let (lo, hi) = (b.min - b.extent() * 0.1, b.max + b.extent() * 0.1);
+        let mut rng = Rng::new(21, 0);
+        let mut point = || lo + (hi - lo) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+        let mut segments: Vec<(Vec3, Vec3)> = (0..20_000)
+            .map(|i| {
+                let (p, q) = (point(), point());
+                // Every other segment short: a few cells, finished within the step limit.
+                if i % 2 == 0 { (p, p + (q - p) * 0.05) } else { (p, q) }
+            })
+            .collect();
+        let tracer = ExactTracer::build(&frame);
+        let g = GBuffer::new(&frame, &tracer, &scene.camera_or_default(4.0 / 3.0), 64, 48);
+        let offset = cpu.cell_size_world() * params.origin_offset_cells;
+        let mut light = 0;
+        if frame.emissive_distribution.is_some() {
+            for i in 0..g.len() {
+                let Some(s) = glimpse_render::direct::Shading::from_gbuffer(&g, i) else { continue };
+                let mut rng = Rng::for_pixel(5, i as u64, 1);
+                for _ in 0..4 {
+                    if let Some((_, from, to)) =
+                        glimpse_render::direct::area_light_segment(&frame, &s, rng.next_f32(), rng.next_2d(), offset)
+                    {
+                        segments.push((from, to));
+                        light += 1;
+                    }
+                }
+            }
+        }
+        let queries: Vec<GpuQuery> = segments.iter().map(|&(a, b)| GpuQuery::segment(a, b)).collect();
+        for steps in [1, 8, 64] {
+            let got = gpu.any_hit_unsnapped(&ctx, &queries, steps).unwrap();
+            let want: Vec<bool> = segments.iter().map(|&(a, b)| cpu.any_hit_unsnapped(a, b, steps)).collect();
+            let differ = got.iter().zip(&want).filter(|(g, c)| g != c).count();
+            let hits = want.iter().filter(|&&h| h).count();
+            let what = format!("{name} n={n} dda_steps={steps} ({} random + {light} light segments, {hits} hit)", segments.len() - light);
+            println!("{what}: {differ} of {} differ", segments.len());
+            // The kernel is the CPU's arithmetic, operation for operation: equal on every segment.
+            assert_eq!(differ, 0, "{what}");
+            assert!(hits > 0 && hits < segments.len(), "{what}: a constant answer proves nothing");
+        }
+        ctx.check().unwrap();
+    }
+}
+
 /// One frame of `ao-roma` on the GPU equals the CPU technique's single frame (same GBuffer, same
 /// per-pixel directions), pixel for pixel.
 #[test]
