@@ -30,7 +30,7 @@ use crate::grid::{Grid, MAX_RESOLUTION};
 use crate::{AutoBudget, DvfParams, PointSampling, Rounding, Unshadowed};
 use glimpse_core::sh::Sh9;
 use glimpse_core::{Image, Vec2, Vec3};
-use glimpse_gpu::compute::{Kernel, ReusableBuffer, read_back, storage_buffer, uniform_buffer, write};
+use glimpse_gpu::compute::{Kernel, ReusableBuffer, hexd, hexf, read_back, storage_buffer, uniform_buffer, write};
 use glimpse_gpu::layout::{BOX_EXIT_SCALE, TraceParams};
 use glimpse_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, KernelTime, wgpu};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique};
@@ -76,26 +76,6 @@ impl From<DvfGpuError> for RenderError {
     fn from(e: DvfGpuError) -> Self {
         RenderError::Unsupported { technique: "env-dvf (GPU)".into(), message: e.to_string() }
     }
-}
-
-/// An f32 as an exact WGSL hex-float literal (decimal literals go through f64 in naga).
-fn hexf(x: f32) -> String {
-    if x == 0.0 {
-        return if x.is_sign_negative() { "-0.0f".into() } else { "0.0f".into() };
-    }
-    let b = x.to_bits();
-    let (sign, e, m) = (if b >> 31 == 1 { "-" } else { "" }, ((b >> 23) & 0xff) as i32, b & 0x7f_ffff);
-    if e == 0 {
-        return format!("{sign}0x0.{:06x}p-126f", m << 1);
-    }
-    format!("{sign}0x1.{:06x}p{}f", m << 1, e - 127)
-}
-
-/// An f64 (normal) as an exact WGSL hex-float literal.
-fn hexd(x: f64) -> String {
-    let b = x.to_bits();
-    let (sign, e, m) = (if b >> 63 == 1 { "-" } else { "" }, ((b >> 52) & 0x7ff) as i64, b & 0xf_ffff_ffff_ffff);
-    format!("{sign}0x1.{m:013x}p{}lf", e - 1023)
 }
 
 fn vec3_literal(v: [f32; 3]) -> String {
@@ -912,15 +892,6 @@ impl Technique for GpuEnvDvf {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn hex_literals_are_exact() {
-        assert_eq!(hexf(1.0), "0x1.000000p0f");
-        assert_eq!(hexf(-0.5), "-0x1.000000p-1f");
-        assert_eq!(hexd(1.0), "0x1.0000000000000p0lf");
-        assert_eq!(hexd(-1.5), "-0x1.8000000000000p0lf");
-        assert_eq!(hexd(f64::from_bits(0x3ff9_21fb_5444_2d18)), "0x1.921fb54442d18p0lf");
-    }
 
     #[test]
     fn the_rng_state_is_rngs() {

@@ -177,3 +177,39 @@ pub fn read_back<T: Pod>(ctx: &GpuContext, buffer: &Buffer, count: usize) -> Res
     staging.unmap();
     Ok(out)
 }
+
+/// An f32 as an exact WGSL hex-float literal: a decimal literal would be rounded twice by naga
+/// (through f64), so kernels that must equal the CPU bit for bit get their constants this way.
+pub fn hexf(x: f32) -> String {
+    if x == 0.0 {
+        return if x.is_sign_negative() { "-0.0f".into() } else { "0.0f".into() };
+    }
+    let b = x.to_bits();
+    let (sign, e, m) = (if b >> 31 == 1 { "-" } else { "" }, ((b >> 23) & 0xff) as i32, b & 0x7f_ffff);
+    if e == 0 {
+        // Subnormal: 0.m · 2^-126.
+        return format!("{sign}0x0.{:06x}p-126f", m << 1);
+    }
+    format!("{sign}0x1.{:06x}p{}f", m << 1, e - 127)
+}
+
+/// An f64 (normal) as an exact WGSL hex-float literal (`SHADER_F64` kernels).
+pub fn hexd(x: f64) -> String {
+    let b = x.to_bits();
+    let (sign, e, m) = (if b >> 63 == 1 { "-" } else { "" }, ((b >> 52) & 0x7ff) as i64, b & 0xf_ffff_ffff_ffff);
+    format!("{sign}0x1.{m:013x}p{}lf", e - 1023)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hex_literals_are_exact() {
+        assert_eq!(hexf(1.0), "0x1.000000p0f");
+        assert_eq!(hexf(-0.5), "-0x1.000000p-1f");
+        assert_eq!(hexd(1.0), "0x1.0000000000000p0lf");
+        assert_eq!(hexd(-1.5), "-0x1.8000000000000p0lf");
+        assert_eq!(hexd(f64::from_bits(0x3ff9_21fb_5444_2d18)), "0x1.921fb54442d18p0lf");
+    }
+}

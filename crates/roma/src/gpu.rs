@@ -28,7 +28,7 @@ use crate::grid::om_axes;
 use crate::{Grid, MapTransform, RomaParams, frame_grid_and_candidates};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Aabb, Frame, Image, Ray, Rng, Vec3};
-use glimpse_gpu::compute::{Kernel, ReusableBuffer, read_back, storage_buffer, storage_buffer_zeroed, uniform_buffer};
+use glimpse_gpu::compute::{Kernel, ReusableBuffer, hexf, read_back, storage_buffer, storage_buffer_zeroed, uniform_buffer};
 use glimpse_gpu::{GpuContext, GpuError, GpuTimer, KernelTime, wgpu};
 use glimpse_trace::GBuffer;
 
@@ -48,21 +48,6 @@ const DDA: &str = include_str!("gpu/dda.wgsl");
 
 /// `fast_math::atan_unit`'s coefficients (checked against it by a unit test).
 const ATAN: [f32; 6] = [0.999_977_26, -0.332_623_47, 0.193_543_46, -0.116_432_87, 0.052_653_32, -0.011_721_2];
-
-/// An f32 as an exact WGSL hex-float literal (decimal literals would be rounded twice by naga,
-/// through f64).
-fn hexf(x: f32) -> String {
-    if x == 0.0 {
-        return if x.is_sign_negative() { "-0.0f".into() } else { "0.0f".into() };
-    }
-    let b = x.to_bits();
-    let (sign, e, m) = (if b >> 31 == 1 { "-" } else { "" }, ((b >> 23) & 0xff) as i32, b & 0x7f_ffff);
-    if e == 0 {
-        // Subnormal: 0.m · 2^-126.
-        return format!("{sign}0x0.{:06x}p-126f", m << 1);
-    }
-    format!("{sign}0x1.{:06x}p{}f", m << 1, e - 127)
-}
 
 /// The constants every kernel reads: the resolution and the CPU's f32 constants, exactly.
 pub fn wgsl_prelude() -> String {

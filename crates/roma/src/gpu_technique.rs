@@ -12,10 +12,10 @@ use super::{GPU_RESOLUTION, GpuQuery, GpuRoma};
 use crate::technique::MAX_RSM_LIGHTS;
 use crate::{Accumulator, DEFAULT_ACCUMULATE, RomaParams, Voxelization};
 use glimpse_core::sampling::cosine_hemisphere;
-use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
+use glimpse_core::{Frame, Image, Rng, Vec3};
 use glimpse_gpu::{GpuContext, GpuTimer};
 use glimpse_render::direct::{self, Shading};
-use glimpse_render::rsm::{Rsm, rsm_lights};
+use glimpse_render::rsm::Rsm;
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
@@ -292,25 +292,7 @@ impl Technique for GpuGiRoma {
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         // The CPU `GiRoma::prepare`: the same RSMs from the same random numbers.
         let mut stats = self.state.prepare(ctx)?;
-        let (seed, jitter) = (self.state.settings.seed, self.state.params.jitter);
-        let res = self.rsm_resolution;
-        let maps = glimpse_render::rsm::rsm_light_count(&ctx.frame);
-        let bytes = maps as u64 * (res as u64).pow(2) * glimpse_render::rsm::BYTES_PER_TEXEL;
-        glimpse_core::memory_budget::check(
-            format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", if maps == 1 { "" } else { "s" }),
-            bytes,
-        )?;
-        self.rsms = stats.time("rsm", || {
-            let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
-            rsm_lights(&ctx.frame, &mut rng)
-                .iter()
-                .map(|light| {
-                    let j = if jitter { rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
-                    Rsm::build(&ctx.frame, &ctx.tracer, light, res, j)
-                })
-                .collect()
-        });
-        stats.memory_bytes += self.rsms.iter().map(Rsm::memory_bytes).sum::<usize>();
+        self.rsms = crate::technique::build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, self.rsm_resolution, &mut stats)?;
         Ok(stats)
     }
 

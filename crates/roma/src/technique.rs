@@ -280,6 +280,30 @@ impl GiRoma {
     }
 }
 
+/// `gi-roma`'s reflective shadow maps for this frame (one per light that casts them), checked
+/// against the memory budget first; the CPU technique and its GPU port build the same maps from
+/// the same random numbers.
+pub(crate) fn build_rsms(ctx: &FrameContext, seed: u64, jitter: bool, res: u32, stats: &mut Stats) -> Result<Vec<Rsm>, RenderError> {
+    let maps = glimpse_render::rsm::rsm_light_count(&ctx.frame);
+    let bytes = maps as u64 * (res as u64).pow(2) * glimpse_render::rsm::BYTES_PER_TEXEL;
+    glimpse_core::memory_budget::check(
+        format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", if maps == 1 { "" } else { "s" }),
+        bytes,
+    )?;
+    let rsms: Vec<Rsm> = stats.time("rsm", || {
+        let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
+        rsm_lights(&ctx.frame, &mut rng)
+            .iter()
+            .map(|light| {
+                let j = if jitter { rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
+                Rsm::build(&ctx.frame, &ctx.tracer, light, res, j)
+            })
+            .collect()
+    });
+    stats.memory_bytes += rsms.iter().map(Rsm::memory_bytes).sum::<usize>();
+    Ok(rsms)
+}
+
 impl Technique for GiRoma {
     fn id(&self) -> &'static str {
         "gi-roma"
@@ -287,25 +311,7 @@ impl Technique for GiRoma {
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = self.state.prepare(ctx)?;
-        let (seed, jitter) = (self.state.settings.seed, self.state.params.jitter);
-        let res = self.rsm_resolution;
-        let maps = glimpse_render::rsm::rsm_light_count(&ctx.frame);
-        let bytes = maps as u64 * (res as u64).pow(2) * glimpse_render::rsm::BYTES_PER_TEXEL;
-        glimpse_core::memory_budget::check(
-            format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", if maps == 1 { "" } else { "s" }),
-            bytes,
-        )?;
-        self.rsms = stats.time("rsm", || {
-            let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
-            rsm_lights(&ctx.frame, &mut rng)
-                .iter()
-                .map(|light| {
-                    let j = if jitter { rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
-                    Rsm::build(&ctx.frame, &ctx.tracer, light, res, j)
-                })
-                .collect()
-        });
-        stats.memory_bytes += self.rsms.iter().map(Rsm::memory_bytes).sum::<usize>();
+        self.rsms = build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, self.rsm_resolution, &mut stats)?;
         Ok(stats)
     }
 
