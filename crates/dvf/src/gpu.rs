@@ -769,7 +769,9 @@ impl GpuEnvDvf {
         stats.metrics.push(("grid".to_owned(), p.grid as f64));
         if let (Some(noise), true) = (self.map_noise, self.params.auto.unshadowed) {
             let (visible, occluded) = self.dvf.masks(&ctx)?;
-            let fraction = crate::occluded_cell_fraction(&self.dvf.labels(&ctx)?, &visible, &occluded);
+            let words = visible.len() / self.dvf.built()?.cells().max(1);
+            let seen = |c: usize| visible[c * words..(c + 1) * words].iter().chain(&occluded[c * words..(c + 1) * words]).any(|&w| w != 0);
+            let fraction = crate::occluded_cell_fraction(&self.dvf.labels(&ctx)?, seen);
             self.params.unshadowed = crate::choose_unshadowed(noise, fraction);
             stats.metrics.push(("occluded_cells".to_owned(), fraction as f64));
         }

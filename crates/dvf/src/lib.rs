@@ -181,19 +181,17 @@ pub fn cosine_estimator_noise(env: &glimpse_scene::Environment, rays: u32) -> f3
 /// 0.0084; `million-triangles` 0 %). The cost: every ray's map lookup in the shading.
 pub const SH_MAX_OCCLUDED_CELLS: f32 = 0.5;
 
-/// [`Dvf::occluded_cell_fraction`] from plain copies of the labels and the two masks' words
-/// (cell-major, the same number of words per cell), as the GPU field reads them back.
-pub fn occluded_cell_fraction(labels: &[u8], visible: &[u64], occluded: &[u64]) -> f32 {
-    let words = visible.len() / labels.len().max(1);
-    let (mut seen, mut occ) = (0u64, 0u64);
+/// The share of the cells with `seen(cell)` (any mask pixel set) labelled `l_occ = 1`: one loop
+/// for the CPU field ([`Dvf::occluded_cell_fraction`]) and the GPU's read-back labels and masks.
+pub fn occluded_cell_fraction(labels: &[u8], seen: impl Fn(usize) -> bool) -> f32 {
+    let (mut cells, mut occluded) = (0u64, 0u64);
     for (c, &l) in labels.iter().enumerate() {
-        let range = c * words..(c + 1) * words;
-        if visible[range.clone()].iter().chain(&occluded[range]).any(|&w| w != 0) {
-            seen += 1;
-            occ += u64::from(l);
+        if seen(c) {
+            cells += 1;
+            occluded += u64::from(l);
         }
     }
-    if seen == 0 { 0.0 } else { occ as f32 / seen as f32 }
+    if cells == 0 { 0.0 } else { occluded as f32 / cells as f32 }
 }
 
 /// `unshadowed=auto`'s choice for a map whose N_r-ray estimate has relative noise `noise`
@@ -340,8 +338,7 @@ impl Dvf {
     /// The share of the cells that saw any sample ray whose label is `l_occ = 1` (mostly
     /// occluded): near 1 in a closed interior, low in an open scene.
     pub fn occluded_cell_fraction(&self) -> f32 {
-        let (visible, occluded) = self.masks.snapshot();
-        occluded_cell_fraction(&self.labels, &visible, &occluded)
+        occluded_cell_fraction(&self.labels, |c| self.masks.counts(c) != (0, 0))
     }
 
     /// The five stages, each timed into `stats`: vertices (the CPU update), areas (CS1),
