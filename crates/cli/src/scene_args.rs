@@ -8,8 +8,12 @@ use glimpse_core::Vec3;
 use glimpse_scene::{Camera, Light, Scene};
 use std::path::PathBuf;
 
-#[derive(Args, Clone, Debug, Default)]
+#[derive(Args, Clone, Debug)]
 pub struct SceneArgs {
+    /// Multiplies every length of the scene (positions, motion, lights, camera) keeping the
+    /// picture: the same scene in other units (0.01: centimetres read as metres).
+    #[arg(long, default_value_t = 1.0, value_name = "S")]
+    pub scale: f32,
     /// Pixel filter the primary samples are drawn from: box (default), tent, gaussian or
     /// pixel-centre (overrides the scene's [film] filter).
     #[arg(long, value_name = "FILTER", value_parser = parse_filter)]
@@ -43,6 +47,7 @@ impl SceneArgs {
     /// The overrides as the library takes them.
     pub fn overrides(&self) -> glimpse_scene::SceneOverrides {
         glimpse_scene::SceneOverrides {
+            scale: self.scale,
             filter: self.filter,
             film_samples: self.film_samples,
             env: self.env.clone(),

@@ -23,6 +23,7 @@ pub mod overrides;
 pub mod ply_loader;
 pub mod procedural;
 pub mod render_hints;
+pub mod rescale;
 pub mod toml_loader;
 pub mod validate;
 

@@ -1,5 +1,5 @@
-//! Scene overrides from the command line (`--env`, `--sun`, `--light`, `--camera`, `--filter`,
-//! `--film-samples`), applied the same way by every command that takes a scene (`render`, `eval`,
+//! Scene overrides from the command line (`--scale`, `--env`, `--sun`, `--light`, `--camera`,
+//! `--filter`, `--film-samples`), applied the same way by every command that takes a scene (`render`, `eval`,
 //! `play`, `bench`, `view`), then the default light for a scene that still has none
 //! ([`crate::auto::ensure_light`]).
 
@@ -9,6 +9,9 @@ use std::path::PathBuf;
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct SceneOverrides {
+    /// Every length times this (the same picture in other units, [`Scene::rescale`]); applied
+    /// first, so the other overrides' positions are in the scaled units.
+    pub scale: f32,
     pub filter: Option<Filter>,
     pub film_samples: Option<u32>,
     /// Equirectangular .hdr/.exr replacing the scene's environment, and its scale.
@@ -23,7 +26,7 @@ pub struct SceneOverrides {
 
 impl Default for SceneOverrides {
     fn default() -> Self {
-        Self { filter: None, film_samples: None, env: None, env_scale: 1.0, sun: None, sun_radiance: 3.0, lights: Vec::new(), camera: None }
+        Self { scale: 1.0, filter: None, film_samples: None, env: None, env_scale: 1.0, sun: None, sun_radiance: 3.0, lights: Vec::new(), camera: None }
     }
 }
 
@@ -32,6 +35,9 @@ impl SceneOverrides {
     /// whether that default light was added (the caller says so once); the error names the
     /// option.
     pub fn apply(&self, scene: &mut Scene) -> Result<bool, String> {
+        if self.scale != 1.0 {
+            scene.rescale(self.scale)?;
+        }
         if let Some(filter) = self.filter {
             scene.film.filter = filter;
         }
@@ -72,7 +78,8 @@ impl SceneOverrides {
             format!("{}:{}:{:?}", p.display(), meta.map_or(0, |m| m.len()), stamp)
         });
         format!(
-            "{:?} {:?} {env:?} {} {:?} {} {:?} {:?}",
+            "{} {:?} {:?} {env:?} {} {:?} {} {:?} {:?}",
+            self.scale,
             self.filter, self.film_samples, self.env_scale, self.sun, self.sun_radiance, self.lights, self.camera
         )
     }
