@@ -20,6 +20,7 @@ use crate::row::Row;
 use crate::voxelize::{Grid, alloc_rows, rasterize, set_voxel};
 use crate::{Array, Rows, VoxArray, VoxArrayParams};
 use glimpse_core::{Mat4, Vec3};
+use glimpse_render::direct::PunctualSample;
 use glimpse_scene::SceneFrame;
 use glimpse_trace::Visibility;
 use rayon::prelude::*;
@@ -172,15 +173,23 @@ impl Instanced {
         })
     }
 
-    /// Alg. 5 on a shadow sample of a surface point, the start moved along the normal by the
-    /// static array's `normal_offset_cells` (see [`crate::Array::occluded_from_surface`]).
-    pub fn occluded_from_surface(&self, ps: &glimpse_render::direct::PunctualSample, normal: Vec3) -> bool {
+    /// Alg. 5 on a shadow sample of a surface point: [`Self::surface_segment`]'s segment.
+    pub fn occluded_from_surface(&self, ps: &PunctualSample, normal: Vec3) -> bool {
+        let (start, end) = self.surface_segment(ps, normal);
+        self.occluded_segment(start, end)
+    }
+
+    /// The segment [`Self::occluded_from_surface`] queries: the start moved along the normal by
+    /// the static array's `normal_offset_cells` (see [`crate::Array::occluded_from_surface`]),
+    /// the end cut where the shadow ray leaves the static array's grid (its cells, not a type's,
+    /// measure the offset and the cut: the segment starts and ends in the world).
+    pub fn surface_segment(&self, ps: &PunctualSample, normal: Vec3) -> (Vec3, Vec3) {
         let (cell, off, far) = self.static_part.as_ref().map_or((0.0, 0.0, 1e6), |a| {
             let g = a.grid();
             (1.0 / g.scale, a.normal_offset_cells(), (ps.shadow.origin - g.center).length() + 0.87 * g.resolution as f32 / g.scale)
         });
         let n = if normal.dot(ps.shadow.dir) < 0.0 { -normal } else { normal };
-        self.occluded_segment(ps.shadow.origin + n * (off * cell), ps.shadow.at(ps.t_max.min(far)))
+        (ps.shadow.origin + n * (off * cell), ps.shadow.at(ps.t_max.min(far)))
     }
 
     pub fn memory_bytes(&self) -> usize {

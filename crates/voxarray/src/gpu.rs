@@ -1,7 +1,8 @@
-//! Alg. 3 on the GPU (issue #18 item 4): a built [`VoxArray`] uploaded once, then batches of
-//! segments answered by `query.wgsl`, one invocation per segment, with the decisions of
-//! [`Array::occluded_segment`] / [`Array::occluded_segments`] (the CPU arithmetic ported
-//! operation for operation; see the kernel's header comment).
+//! Alg. 3 on the GPU (issue #18 item 4): a built [`VoxArray`] uploaded once (or, rebuilt every
+//! frame, re-uploaded by [`GpuVoxArray::reload`]), then batches of segments answered by
+//! `query.wgsl`, one invocation per segment, with the decisions of [`Array::occluded_segment`] /
+//! [`Array::occluded_segments`] (the CPU arithmetic ported operation for operation; see the
+//! kernel's header comment).
 //!
 //! Data on the GPU (all read-only storage, group 0):
 //! - binding 0, `Params` (uniform): grid centre and scale, N, n, the biases, `nf − 1e-3`, π/n,
@@ -26,11 +27,14 @@ use glimpse_core::{Ray, Vec3};
 use glimpse_gpu::compute::{Kernel, ReusableBuffer, read_back, storage_buffer, uniform_buffer, workgroups, write};
 use glimpse_gpu::wgpu::{self, Buffer};
 use glimpse_gpu::{GpuContext, GpuError, GpuTimer, KernelTime};
-use glimpse_render::direct::{self, Shading};
-use glimpse_scene::SceneFrame;
+use glimpse_render::direct::{self, PunctualSample, Shading};
+use glimpse_scene::{SceneFrame, WorldLight};
 use glimpse_trace::GBuffer;
 use thiserror::Error;
 
+/// The technique's structure (static array, Alg. 5's instances, Alg. 6's rebuilt array) on the GPU.
+#[path = "gpu_structure.rs"]
+pub mod structure;
 /// `lights-voxarray` as a `Technique` on the GPU (`--device gpu`).
 #[path = "gpu_technique.rs"]
 pub mod technique;
@@ -79,13 +83,8 @@ struct Params {
 /// A [`VoxArray`] in GPU buffers and the compiled query.
 pub struct GpuVoxArray {
     kernel: Kernel,
-    params: Params,
+    data: Uploaded,
     params_buffer: Buffer,
-    cos_sin: Buffer,
-    /// Plain rows or dictionary rows, in chunks of `1 << params.row_shift` rows.
-    rows: Vec<Buffer>,
-    /// Packed index words (u32), in chunks of `1 << params.word_shift` words; empty when plain.
-    indices: Vec<Buffer>,
     segments: ReusableBuffer,
     out: ReusableBuffer,
     chunk: usize,
@@ -95,6 +94,20 @@ pub struct GpuVoxArray {
     pub bytes: u64,
     /// Kernel times of the last call (empty without timestamp queries).
     pub last_times: Vec<KernelTime>,
+}
+
+/// One array's buffers, the kernel's constants for it, and the kernel source its layout needs.
+struct Uploaded {
+    params: Params,
+    cos_sin: Buffer,
+    /// Plain rows or dictionary rows, in chunks of `1 << params.row_shift` rows.
+    rows: Vec<Buffer>,
+    /// Packed index words (u32), in chunks of `1 << params.word_shift` words; empty when plain.
+    indices: Vec<Buffer>,
+    /// `query.wgsl` with its header: depends on the layout only (row width, compression, chunk
+    /// counts, f64 division), not on the array's contents or grid.
+    source: String,
+    bytes: u64,
 }
 
 /// Elements of `elem_bytes` bytes per chunk: the largest power of two that fits one binding,
@@ -127,6 +140,80 @@ impl GpuVoxArray {
     /// [`GpuVoxArray::new`] with the division/square-root choice made by the caller (`exact_f64`
     /// needs `SHADER_F64`; `false` uses WGSL's `/` and `sqrt`).
     pub fn with_f64(ctx: &GpuContext, array: &VoxArray, exact_f64: bool) -> Result<Self, GpuVoxArrayError> {
+        let data = Uploaded::new(ctx, array, exact_f64)?;
+        let kernel = Kernel::new(ctx, "voxarray query", &data.source, "query")?;
+        let by_binding = (ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size) / 32) as usize;
+        let by_dispatch = ctx.limits.max_compute_workgroups_per_dimension as usize * WORKGROUP as usize;
+        let chunk = by_binding.min(by_dispatch).clamp(1, MAX_CHUNK);
+        Ok(Self {
+            kernel,
+            params_buffer: uniform_buffer(ctx, "voxarray params", &data.params),
+            bytes: data.bytes,
+            data,
+            segments: ReusableBuffer::new(ctx, "voxarray segments", 32)?,
+            out: ReusableBuffer::new(ctx, "voxarray occluded", 4)?,
+            chunk,
+            exact_f64,
+            last_times: Vec::new(),
+        })
+    }
+
+    /// Replaces the array by `array` (a deforming scene's per-frame rebuild, Alg. 6): fresh data
+    /// buffers, the compiled kernel kept when the layout is the same (it is for a rebuild at the
+    /// same resolution and directions: only the contents and the grid move).
+    pub fn reload(&mut self, ctx: &GpuContext, array: &VoxArray) -> Result<(), GpuVoxArrayError> {
+        let data = Uploaded::new(ctx, array, self.exact_f64)?;
+        if data.source != self.data.source {
+            self.kernel = Kernel::new(ctx, "voxarray query", &data.source, "query")?;
+        }
+        self.bytes = data.bytes;
+        self.data = data;
+        Ok(())
+    }
+
+    /// The row (or dictionary) chunks, then the index chunks, for read-back checks.
+    pub fn data_buffers(&self) -> (&[Buffer], &[Buffer]) {
+        (&self.data.rows, &self.data.indices)
+    }
+
+    /// The cos/sin table's buffer.
+    pub fn cos_sin_buffer(&self) -> &Buffer {
+        &self.data.cos_sin
+    }
+
+    /// Segments per dispatch on this device.
+    pub fn chunk_size(&self) -> usize {
+        self.chunk
+    }
+
+    /// `out[k] = array.occluded_segment(segments[k].0, segments[k].1)` on the GPU, for finite
+    /// segments; kernel times in [`GpuVoxArray::last_times`].
+    pub fn occluded_segments(&mut self, ctx: &GpuContext, segments: &[(Vec3, Vec3)]) -> Result<Vec<bool>, GpuVoxArrayError> {
+        let mut timer = GpuTimer::new(ctx, segments.len().div_ceil(self.chunk).max(1) as u32);
+        let mut out = Vec::with_capacity(segments.len());
+        for batch in segments.chunks(self.chunk) {
+            let packed: Vec<[f32; 4]> = batch.iter().flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
+            self.segments.upload(ctx, &packed)?;
+            self.out.reserve(ctx, batch.len() as u64 * 4)?;
+            write(ctx, &self.params_buffer, &[Params { count: batch.len() as u32, ..self.data.params }])?;
+            let mut entries = vec![(0, &self.params_buffer), (1, &self.data.cos_sin), (2, &self.segments.buffer), (3, &self.out.buffer)];
+            for (k, b) in self.data.rows.iter().chain(&self.data.indices).enumerate() {
+                entries.push((FIRST_DATA_BINDING + k as u32, b));
+            }
+            let bind = self.kernel.bind(ctx, &entries);
+            let mut encoder = ctx.device.create_command_encoder(&Default::default());
+            self.kernel.dispatch(&mut encoder, &bind, workgroups(batch.len(), WORKGROUP), timer.pass("voxarray query"));
+            ctx.queue.submit([encoder.finish()]);
+            let words: Vec<u32> = read_back(ctx, &self.out.buffer, batch.len())?;
+            out.extend(words.into_iter().map(|w| w != 0));
+        }
+        self.last_times = timer.finish(ctx)?;
+        Ok(out)
+    }
+}
+
+impl Uploaded {
+    fn new(ctx: &GpuContext, array: &VoxArray, exact_f64: bool) -> Result<Self, GpuVoxArrayError> {
         match array {
             VoxArray::R32(a) => Self::upload(ctx, a, "u32", "vec4<u32>(r, 0u, 0u, 0u)", exact_f64),
             VoxArray::R64(a) => Self::upload(ctx, a, "vec2<u32>", "vec4<u32>(r, 0u, 0u)", exact_f64),
@@ -195,65 +282,8 @@ impl GpuVoxArray {
             _pad: [0; 3],
         };
         let source = format!("{}\n{}", header(row_type, words, compressed, row_chunks, word_chunks, exact_f64), include_str!("query.wgsl"));
-        let kernel = Kernel::new(ctx, "voxarray query", &source, "query")?;
-        let by_binding = (ctx.limits.max_storage_buffer_binding_size.min(ctx.limits.max_buffer_size) / 32) as usize;
-        let by_dispatch = ctx.limits.max_compute_workgroups_per_dimension as usize * WORKGROUP as usize;
-        let chunk = by_binding.min(by_dispatch).clamp(1, MAX_CHUNK);
         let bytes = (row_data.len() as u64 * row_bytes) + index_words.len() as u64 * 4 + table.len() as u64 * 8;
-        Ok(Self {
-            kernel,
-            params,
-            params_buffer: uniform_buffer(ctx, "voxarray params", &params),
-            cos_sin,
-            rows,
-            indices,
-            segments: ReusableBuffer::new(ctx, "voxarray segments", 32)?,
-            out: ReusableBuffer::new(ctx, "voxarray occluded", 4)?,
-            chunk,
-            exact_f64,
-            bytes,
-            last_times: Vec::new(),
-        })
-    }
-
-    /// The row (or dictionary) chunks, then the index chunks, for read-back checks.
-    pub fn data_buffers(&self) -> (&[Buffer], &[Buffer]) {
-        (&self.rows, &self.indices)
-    }
-
-    /// The cos/sin table's buffer.
-    pub fn cos_sin_buffer(&self) -> &Buffer {
-        &self.cos_sin
-    }
-
-    /// Segments per dispatch on this device.
-    pub fn chunk_size(&self) -> usize {
-        self.chunk
-    }
-
-    /// `out[k] = array.occluded_segment(segments[k].0, segments[k].1)` on the GPU, for finite
-    /// segments; kernel times in [`GpuVoxArray::last_times`].
-    pub fn occluded_segments(&mut self, ctx: &GpuContext, segments: &[(Vec3, Vec3)]) -> Result<Vec<bool>, GpuVoxArrayError> {
-        let mut timer = GpuTimer::new(ctx, segments.len().div_ceil(self.chunk).max(1) as u32);
-        let mut out = Vec::with_capacity(segments.len());
-        for batch in segments.chunks(self.chunk) {
-            let packed: Vec<[f32; 4]> = batch.iter().flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
-            self.segments.upload(ctx, &packed)?;
-            self.out.reserve(ctx, batch.len() as u64 * 4)?;
-            write(ctx, &self.params_buffer, &[Params { count: batch.len() as u32, ..self.params }])?;
-            let mut entries = vec![(0, &self.params_buffer), (1, &self.cos_sin), (2, &self.segments.buffer), (3, &self.out.buffer)];
-            for (k, b) in self.rows.iter().chain(&self.indices).enumerate() {
-                entries.push((FIRST_DATA_BINDING + k as u32, b));
-            }
-            let bind = self.kernel.bind(ctx, &entries);
-            let mut encoder = ctx.device.create_command_encoder(&Default::default());
-            self.kernel.dispatch(&mut encoder, &bind, workgroups(batch.len(), WORKGROUP), timer.pass("voxarray query"));
-            ctx.queue.submit([encoder.finish()]);
-            let words: Vec<u32> = read_back(ctx, &self.out.buffer, batch.len())?;
-            out.extend(words.into_iter().map(|w| w != 0));
-        }
-        self.last_times = timer.finish(ctx)?;
-        Ok(out)
+        Ok(Self { params, cos_sin, rows, indices, source, bytes })
     }
 }
 
@@ -271,24 +301,31 @@ pub fn ray_segments(array: &VoxArray, rays: &[(Ray, f32)]) -> Vec<(Vec3, Vec3)> 
     }
 }
 
-/// The shadow segments `lights-voxarray` queries for `gbuffer` (pixel by pixel, the first
-/// `lights` punctual lights of the frame): every sample that faces its light, its start moved
-/// along the normal ([`Array::surface_segment`]), as the technique's per-sample path forms them.
-pub fn shadow_segments(array: &VoxArray, frame: &SceneFrame, gbuffer: &GBuffer, lights: usize) -> Vec<(Vec3, Vec3)> {
+/// The shadow samples `lights-voxarray` makes at one shaded point, in the lights' order: every
+/// light that faces the point and reaches it, with its cosine (the CPU technique's test).
+pub fn lit_samples(s: Shading, lights: &[WorldLight]) -> impl Iterator<Item = (PunctualSample, f32)> + '_ {
+    lights.iter().filter_map(move |light| {
+        let ps = direct::punctual(light, s.position, s.normal);
+        let cos = s.cos(ps.wi);
+        (cos > 0.0 && ps.irradiance.max_element() > 0.0).then_some((ps, cos))
+    })
+}
+
+/// Every shadow sample `lights-voxarray` makes for `gbuffer` (pixel by pixel, the first `lights`
+/// punctual lights of the frame), with the geometric normal its segment is offset along.
+pub fn shadow_samples(frame: &SceneFrame, gbuffer: &GBuffer, lights: usize) -> Vec<(PunctualSample, Vec3)> {
     let lights = &frame.lights[..frame.lights.len().min(lights)];
-    let mut out = Vec::new();
-    for i in 0..gbuffer.len() {
-        let Some(s) = Shading::from_gbuffer(gbuffer, i) else { continue };
-        for light in lights {
-            let ps = direct::punctual(light, s.position, s.normal);
-            let cos = s.cos(ps.wi);
-            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                continue;
-            }
-            out.push(array.surface_segment(&ps, s.normal));
-        }
-    }
-    out
+    (0..gbuffer.len())
+        .filter_map(|i| Shading::from_gbuffer(gbuffer, i))
+        .flat_map(|s| lit_samples(s, lights).map(move |(ps, _)| (ps, s.normal)))
+        .collect()
+}
+
+/// The shadow segments `lights-voxarray` queries for `gbuffer`: [`shadow_samples`], each start
+/// moved along the normal ([`Array::surface_segment`]), as the technique's per-sample path forms
+/// them.
+pub fn shadow_segments(array: &VoxArray, frame: &SceneFrame, gbuffer: &GBuffer, lights: usize) -> Vec<(Vec3, Vec3)> {
+    shadow_samples(frame, gbuffer, lights).iter().map(|(ps, n)| array.surface_segment(ps, *n)).collect()
 }
 
 /// The segment's extent sits on a cell boundary: one of the CPU's clipped ends, or the

@@ -1,17 +1,24 @@
-//! `lights-voxarray` on the GPU as a [`Technique`] (`--device gpu`): the array is built (or
-//! loaded from the disk cache) on the CPU exactly as the CPU technique does — by the CPU
-//! technique's own `prepare` — and uploaded once ([`GpuVoxArray::new`]); each render forms every
-//! pixel × light shadow segment on the CPU as the technique does (same facing test, same
-//! [`crate::Array::surface_segment`]), answers them with the Alg. 3 kernel in batches, and sums
-//! each pixel's unblocked lights in the scene's order, so the image equals the CPU's wherever the
-//! decisions do (all of them in the lavapipe parity tests, docs/gpu.md).
+//! `lights-voxarray` on the GPU as a [`Technique`] (`--device gpu`), for every scene the CPU
+//! technique handles. Its structure is the CPU technique's, made by the CPU technique's own
+//! `prepare`, and mirrored on the GPU by [`GpuStructure`]:
+//! - static scene (Alg. 1 + 2): the array built (or loaded from the disk cache) once and
+//!   uploaded once;
+//! - rigid moving instances (Alg. 5): the static array and the type arrays uploaded once; each
+//!   frame the CPU updates the world-to-local transforms, and every segment is answered against
+//!   the static array, then, moved into each instance's frame on the CPU, against its type's;
+//! - deforming meshes (Alg. 6): the array is rebuilt **on the CPU** every frame (`dynamic::rebuild`;
+//!   the paper's Alg. 6 rasterizes on the GPU, a port left out) and re-uploaded; the upload is
+//!   counted in `prepare` ("gpu upload").
 //!
-//! Static scenes only: Alg. 5 (rigid instances) and Alg. 6 (deforming meshes) stay on the CPU,
-//! and a moving scene is an error rather than a silently stale array. `epsilon` (ε_v, ε_s, untimed)
-//! is measured with the CPU array the GPU holds a copy of.
+//! Each render forms every pixel × light shadow segment on the CPU as the technique does (same
+//! facing test, same [`Structure::surface_segment`]), answers them on the GPU in batches, and sums
+//! each pixel's unblocked lights in the scene's order, so the image equals the CPU's wherever the
+//! decisions do (all of them in the lavapipe parity tests, docs/gpu.md). `epsilon` (ε_v, ε_s,
+//! untimed) is measured with the CPU structure the GPU holds a copy of.
 
-use super::GpuVoxArray;
-use crate::technique::{LightsVoxArray, Structure, is_static};
+use super::lit_samples;
+use super::structure::GpuStructure;
+use crate::technique::{LightsVoxArray, Structure};
 use glimpse_core::{Image, Vec3};
 use glimpse_gpu::{GpuContext, KernelTime};
 use glimpse_render::direct::{self, Shading};
@@ -32,9 +39,10 @@ fn gpu_error(e: impl std::fmt::Display) -> RenderError {
 /// `lights-voxarray` with its queries on the GPU.
 pub struct GpuLightsVoxArray {
     gpu: Arc<GpuContext>,
-    /// The CPU technique: parameters, and the array its `prepare` builds or loads.
+    /// The CPU technique: parameters, and the structure its `prepare` builds, loads or moves.
     cpu: LightsVoxArray,
-    array: Option<GpuVoxArray>,
+    /// The CPU structure's arrays on the GPU, synced after each `prepare`.
+    structure: Option<GpuStructure>,
     /// Kernel times of the last render (empty without timestamp queries).
     pub last_times: Vec<KernelTime>,
 }
@@ -43,13 +51,7 @@ impl GpuLightsVoxArray {
     pub fn new(gpu: Arc<GpuContext>, scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         glimpse_render::require(scene, "lights-voxarray", Need::PunctualLights)?;
         let cpu = LightsVoxArray::new(scene, settings, params)?;
-        if !is_static(scene) {
-            return Err(RenderError::Unsupported {
-                technique: "lights-voxarray".into(),
-                message: format!("on the GPU: static scenes only ('{}' moves; Alg. 5 and 6 run on the CPU: drop --device gpu)", scene.name),
-            });
-        }
-        Ok(Self { gpu, cpu, array: None, last_times: Vec::new() })
+        Ok(Self { gpu, cpu, structure: None, last_times: Vec::new() })
     }
 }
 
@@ -59,26 +61,28 @@ impl Technique for GpuLightsVoxArray {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
-        if self.array.is_some() {
-            return Ok(Stats { memory_bytes: self.cpu.structure.as_ref().map_or(0, Structure::memory_bytes), ..Default::default() });
-        }
+        // The CPU's work: a static array once, Alg. 5's transforms, Alg. 6's rebuild.
         let mut stats = self.cpu.prepare(ctx)?;
-        let Some(Structure::Static(array)) = &self.cpu.structure else {
-            return Err(gpu_error("the array of a static scene was not built"));
-        };
+        let Some(cpu) = &self.cpu.structure else { return Err(gpu_error("the CPU technique built no structure")) };
         let gpu = &self.gpu;
-        self.array = Some(stats.time("gpu upload", || GpuVoxArray::new(gpu, array)).map_err(gpu_error)?);
+        match &mut self.structure {
+            None => self.structure = Some(stats.time("gpu upload", || GpuStructure::new(gpu, cpu)).map_err(gpu_error)?),
+            // Alg. 6: this frame's rebuilt array goes up.
+            Some(g) if matches!(cpu, Structure::Deforming(_)) => stats.time("gpu upload", || g.sync(gpu, cpu)).map_err(gpu_error)?,
+            // Alg. 5: the new transforms (no upload); a static array stays.
+            Some(g) => g.sync(gpu, cpu).map_err(gpu_error)?,
+        }
         Ok(stats)
     }
 
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
-        let (Some(gpu_array), Some(Structure::Static(array))) = (self.array.as_mut(), &self.cpu.structure) else {
+        let (Some(gpu_structure), Some(structure)) = (self.structure.as_mut(), &self.cpu.structure) else {
             return Err(RenderError::Unsupported { technique: "lights-voxarray".into(), message: "render before prepare".into() });
         };
         if (out.width, out.height) != (gbuffer.width, gbuffer.height) {
             return Err(RenderError::Unsupported { technique: "lights-voxarray".into(), message: "image and GBuffer sizes differ".into() });
         }
-        let mut stats = Stats { memory_bytes: array.memory_bytes(), ..Default::default() };
+        let mut stats = Stats { memory_bytes: structure.memory_bytes(), ..Default::default() };
         let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.cpu.lights as usize)];
         let block = (SEGMENTS_PER_BATCH / lights.len().max(1)).max(1);
         let gpu = &self.gpu;
@@ -93,21 +97,13 @@ impl Technique for GpuLightsVoxArray {
                     .into_par_iter()
                     .map(|i| {
                         let Some(s) = Shading::from_gbuffer(gbuffer, i) else { return Vec::new() };
-                        lights
-                            .iter()
-                            .filter_map(|light| {
-                                let ps = direct::punctual(light, s.position, s.normal);
-                                let cos = s.cos(ps.wi);
-                                (cos > 0.0 && ps.irradiance.max_element() > 0.0)
-                                    .then(|| (ps.irradiance * cos, array.surface_segment(&ps, s.normal)))
-                            })
-                            .collect()
+                        lit_samples(s, lights).map(|(ps, cos)| (ps.irradiance * cos, structure.surface_segment(&ps, s.normal))).collect()
                     })
                     .collect();
                 let segments: Vec<(Vec3, Vec3)> = samples.iter().flatten().map(|(_, seg)| *seg).collect();
                 let occluded =
-                    if segments.is_empty() { Vec::new() } else { gpu_array.occluded_segments(gpu, &segments).map_err(gpu_error)? };
-                times.append(&mut gpu_array.last_times);
+                    if segments.is_empty() { Vec::new() } else { gpu_structure.occluded_segments(gpu, &segments).map_err(gpu_error)? };
+                times.append(&mut gpu_structure.take_times());
                 decisions += segments.len() as u64;
                 let mut offset = 0;
                 for (k, (px, pixel_samples)) in pixels.iter_mut().zip(&samples).enumerate() {
@@ -133,9 +129,9 @@ impl Technique for GpuLightsVoxArray {
         stats.rays = stats.time("shade", shade)?;
         self.last_times = times;
         if self.cpu.epsilon {
-            // The CPU array's decisions, which the GPU's equal (docs/gpu.md, parity).
+            // The CPU structure's decisions, which the GPU's equal (docs/gpu.md, parity).
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
-                array.occluded_from_surface(ps, s.normal)
+                structure.occluded_from_surface(ps, s.normal)
             });
             stats.metrics = e.to_metrics();
         }

@@ -82,6 +82,15 @@ impl Structure {
         }
     }
 
+    /// The segment [`Self::occluded_from_surface`] queries (in the world, before any instance's
+    /// transform).
+    pub fn surface_segment(&self, ps: &direct::PunctualSample, normal: Vec3) -> (Vec3, Vec3) {
+        match self {
+            Structure::Static(a) | Structure::Deforming(a) => a.surface_segment(ps, normal),
+            Structure::Instanced(a) => a.surface_segment(ps, normal),
+        }
+    }
+
     /// `out[k] = self.occluded_from_surface(&samples[k].0, samples[k].1)`; a single array
     /// answers the batch with its row loads overlapped ([`crate::batch`]).
     /// `simd`: the AVX2 pass 1 of the batch (where the CPU has it); the answers are the same.

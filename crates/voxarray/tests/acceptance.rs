@@ -1,6 +1,8 @@
 //! The spec's CPU acceptance checks (`shared/specs/voxel-array-shadows.md` §7), small
 //! configurations (resolution 32, few directions). Each prints what it measured first.
 
+mod common;
+
 use glimpse_core::{Mat3, Mat4, Quat, Rng, Vec3};
 use glimpse_render::metrics::ShadowErrors;
 use glimpse_trace::{ExactTracer, GBuffer};
@@ -519,15 +521,11 @@ fn check_15_technique_alg4_static_rigid_deforming() {
     use glimpse_render::{FrameContext, Params, Settings, Technique};
     use glimpse_voxarray::technique::LightsVoxArray;
     for (name, extra) in [("many-lights", "lights=32"), ("cornell-dynamic", "lights=8"), ("deforming", "lights=8")] {
-        let mut scene = if name == "many-lights" { glimpse_scene::builtin::many_lights(32) } else { glimpse_scene::load(name).unwrap() };
-        if name == "cornell-dynamic" {
-            // Only an area light there: add point lights inside the box.
-            let b = scene.at(0.0).bounds;
-            for k in 0..8 {
-                let f = Vec3::new(0.2 + 0.08 * k as f32, 0.8, 0.3 + 0.05 * k as f32);
-                scene.lights.push(glimpse_scene::Light::point(b.min + (b.max - b.min) * f, Vec3::splat(2.0)));
-            }
-        }
+        let scene = match name {
+            "many-lights" => glimpse_scene::builtin::many_lights(32),
+            "cornell-dynamic" => common::cornell_dynamic_lit(8),
+            _ => glimpse_scene::load(name).unwrap(),
+        };
         let ctx = FrameContext::new(&scene, 0.5, 20, 20);
         let g = ctx.gbuffer();
         let params = Params::parse(&["resolution=32", "directions=8", "compress=true", "dictionary=4096", extra]).unwrap();

@@ -1,19 +1,26 @@
 //! The GPU query (`glimpse_voxarray::gpu`, `query.wgsl`) against the CPU's batched query: the
 //! uploaded data read back bit for bit, and the decisions of random, adversarial and
 //! `lights-voxarray` shadow segments, plain and compressed, at 32, 64 and 128 bits per row, with
-//! arrays split over several bindings. Every disagreement must sit on a cell boundary. Skipped
-//! (with a printed reason) when there is no GPU adapter; CI runs it on Mesa's lavapipe.
+//! arrays split over several bindings. Every disagreement must sit on a cell boundary. Then the
+//! moving scenes' structures (Alg. 5's instances, Alg. 6's rebuilt array) over two frames: their
+//! decisions and the `--device gpu` technique's images against the CPU's. Skipped (with a printed
+//! reason) when there is no GPU adapter; CI runs it on Mesa's lavapipe.
 #![cfg(feature = "gpu")]
 
 mod common;
-use common::scene;
+use common::{cornell_dynamic_lit, scene};
 use glimpse_core::{Rng, Vec3};
 use glimpse_gpu::GpuContext;
 use glimpse_gpu::compute::read_back;
+use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_trace::{ExactTracer, GBuffer};
 use glimpse_voxarray::directions::row_direction;
-use glimpse_voxarray::gpu::{GpuVoxArray, GpuVoxArrayError, cpu_answers, on_cell_boundary, shadow_segments};
+use glimpse_voxarray::gpu::structure::GpuStructure;
+use glimpse_voxarray::gpu::technique::GpuLightsVoxArray;
+use glimpse_voxarray::gpu::{GpuVoxArray, GpuVoxArrayError, cpu_answers, on_cell_boundary, shadow_samples, shadow_segments};
+use glimpse_voxarray::technique::{LightsVoxArray, Structure};
 use glimpse_voxarray::{CompressParams, Rows, VoxArray, VoxArrayParams};
+use std::sync::Arc;
 
 /// The GPU context, or `None` after printing why the test is skipped.
 fn context(test: &str) -> Option<GpuContext> {
@@ -252,5 +259,79 @@ fn arrays_larger_than_one_binding_are_split() {
     let e = GpuVoxArray::new(&ctx, &VoxArray::from_triangles(&tris, &p)).err().expect("fits 6 bindings of 16 KiB?");
     println!("under 16 KiB bindings and 6 storage buffers: {e}");
     assert!(matches!(e, GpuVoxArrayError::TooManyBindings { .. }), "{e}");
+    ctx.check().unwrap();
+}
+
+/// The moving scenes on the GPU, two frames each: cornell-dynamic with 8 point lights (rigid
+/// instances, Alg. 5) and deforming (its sun; Alg. 6 rebuilt every frame). Per frame, the GPU
+/// structure's decisions on the shadow segments of a 48×48 GBuffer against the CPU structure's
+/// `occluded_from_surface`, and the GPU technique's image against the CPU technique's: both must
+/// be equal (the same decisions, then the same arithmetic).
+#[test]
+fn moving_scenes_decide_and_render_as_the_cpu() {
+    let Some(ctx) = context("moving scenes") else { return };
+    let ctx = Arc::new(ctx);
+    let params = || {
+        let set = ["resolution=32", "directions=8", "type_resolution=32", "dictionary=4096", "disk_cache=false", "epsilon=false"];
+        Params::parse(&set).unwrap()
+    };
+    for (scene, kind) in
+        [(cornell_dynamic_lit(8), "rigid instances (Alg. 5)"), (glimpse_scene::load("deforming").unwrap(), "deforming (Alg. 6)")]
+    {
+        let mut cpu = LightsVoxArray::new(&scene, &Settings::default(), &params()).unwrap();
+        let mut gpu = GpuLightsVoxArray::new(ctx.clone(), &scene, &Settings::default(), &params()).unwrap();
+        let mut structure: Option<GpuStructure> = None;
+        for time in [0.25, 0.75] {
+            let frame = FrameContext::new(&scene, time, 48, 48);
+            let gbuffer = frame.gbuffer();
+            cpu.prepare(&frame).unwrap();
+            let cpu_structure = cpu.structure.as_ref().unwrap();
+            assert_eq!(matches!(cpu_structure, Structure::Instanced(_)), kind.starts_with("rigid"), "{}: {kind}?", scene.name);
+            match &mut structure {
+                Some(g) => g.sync(&ctx, cpu_structure).unwrap(),
+                None => structure = Some(GpuStructure::new(&ctx, cpu_structure).unwrap()),
+            }
+            // Decisions on the same segments.
+            let samples = shadow_samples(&frame.frame, &gbuffer, usize::MAX);
+            let segments: Vec<(Vec3, Vec3)> = samples.iter().map(|(ps, n)| cpu_structure.surface_segment(ps, *n)).collect();
+            let on_gpu = structure.as_mut().unwrap().occluded_segments(&ctx, &segments).unwrap();
+            let on_cpu: Vec<bool> = samples.iter().map(|(ps, n)| cpu_structure.occluded_from_surface(ps, *n)).collect();
+            let differ = on_gpu.iter().zip(&on_cpu).filter(|(g, c)| g != c).count();
+            let occluded = on_cpu.iter().filter(|&&o| o).count();
+            // Alg. 5: the decisions only a moving instance's type array makes (the test is void
+            // without them).
+            let by_instances = match cpu_structure {
+                Structure::Instanced(i) => Some(
+                    segments
+                        .iter()
+                        .zip(&on_cpu)
+                        .filter(|&(&(s, e), &o)| o && !i.static_part.as_ref().is_some_and(|a| a.occluded_segment(s, e)))
+                        .count(),
+                ),
+                _ => None,
+            };
+            // Images of the same frame.
+            let (mut cpu_image, mut gpu_image) = (frame.image(), frame.image());
+            cpu.render(&frame, &gbuffer, &mut cpu_image).unwrap();
+            gpu.prepare(&frame).unwrap();
+            gpu.render(&frame, &gbuffer, &mut gpu_image).unwrap();
+            let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
+            let pixels_differ = gpu_image.pixels.iter().zip(&cpu_image.pixels).filter(|(a, b)| bits(a) != bits(b)).count();
+            let lit = cpu_image.pixels.iter().filter(|p| p.max_element() > 0.0).count();
+            println!(
+                "{} t={time}, {kind}: {} segments ({occluded} occluded on the CPU{}), agreement {:.4} % ({differ} differ); image {} pixels ({lit} lit), {pixels_differ} differ",
+                scene.name,
+                segments.len(),
+                by_instances.map_or(String::new(), |n| format!(", {n} by a moving instance only")),
+                100.0 - 100.0 * differ as f64 / segments.len().max(1) as f64,
+                cpu_image.pixels.len()
+            );
+            assert!(occluded > 0 && occluded < segments.len(), "no shadow or no light: the test proves nothing");
+            assert!(by_instances.is_none_or(|n| n > 0), "no segment is blocked by a moving instance alone");
+            assert_eq!(differ, 0, "decisions differ");
+            assert!(lit > cpu_image.pixels.len() / 4, "{lit} lit pixels");
+            assert_eq!(pixels_differ, 0, "images differ");
+        }
+    }
     ctx.check().unwrap();
 }

@@ -1,4 +1,6 @@
-//! Shared by the voxel array's test files: a seeded random scene.
+//! Shared by the voxel array's test files: a seeded random scene, a lit moving scene.
+// Each test file uses some of these.
+#![allow(dead_code)]
 
 use glimpse_core::{Rng, Vec3};
 
@@ -16,4 +18,16 @@ pub fn scene(seed: u64, count: usize) -> Vec<[Vec3; 3]> {
     tris.extend(q(Vec3::new(-1., -1., -1.), Vec3::new(1., -1., -1.), Vec3::new(1., -1., 1.), Vec3::new(-1., -1., 1.)));
     tris.extend(q(Vec3::new(-1., -1., -1.), Vec3::new(1., -1., -1.), Vec3::new(1., 1., -1.), Vec3::new(-1., 1., -1.)));
     tris
+}
+
+/// `cornell-dynamic` (rigid moving instances: Alg. 5) with `count` point lights added inside the
+/// box (it has only an area light, which `lights-voxarray` does not use).
+pub fn cornell_dynamic_lit(count: usize) -> glimpse_scene::Scene {
+    let mut scene = glimpse_scene::load("cornell-dynamic").unwrap();
+    let b = scene.at(0.0).bounds;
+    for k in 0..count {
+        let f = Vec3::new(0.2 + 0.08 * k as f32, 0.8, 0.3 + 0.05 * k as f32);
+        scene.lights.push(glimpse_scene::Light::point(b.min + (b.max - b.min) * f, Vec3::splat(2.0)));
+    }
+    scene
 }
