@@ -40,7 +40,9 @@ fn render(scene: &str, technique: &str, device: &str, set: &[&str], args: &[&str
     }
     args.extend(["-o", out.to_str().unwrap()]);
     let log = ok(&glimpse(&args));
-    (Image::read(&out).unwrap(), log)
+    let image = Image::read(&out).unwrap();
+    let _ = std::fs::remove_file(&out);
+    (image, log)
 }
 
 /// Pixels that differ, RMSE and the largest channel difference of `a` against `b`.
@@ -178,6 +180,7 @@ fn eval_and_play_run_on_the_gpu() {
     assert!(log.lines().any(|l| l.starts_with("soft-roma") && l.contains("soft-exact")), "{log}");
     assert!(log.lines().any(|l| l.starts_with("gi-roma") && l.contains("gi-exact")), "{log}");
     assert!(dir.join("results.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
     let log = ok(&glimpse(&["play", "cornell-lit", "-t", "ao-roma", "--device", "gpu", "--frames", "2", "--size", "16x12", "--spp", "1"]));
     println!("{log}");
     assert!(log.contains("frame    1") && log.contains("mean over 2 frames"), "{log}");

@@ -46,6 +46,18 @@ impl Variant {
     }
 }
 
+/// The thesis' absolute lengths (the pVPL radius cap 1, σ_max 0.3) are read in units of this
+/// fraction of the scene's diagonal by default (see [`LightcutsParams::length_unit`]), so the
+/// same scene in centimetres or metres gives the same picture (crates/eval/tests/scale_invariance.rs).
+/// 1: the thesis' values on a scene about 1 m across (our Cornell box: diagonal 0.96 m). Measured
+/// (`glimpse eval SCENE -t vpl-lightcuts,vpl-sst,vpl-rtslc --size 96x64 --spp 8 --set
+/// profile=paper --set pvpl_radius=R --set sigma_max=S`, RMSE of vpl-lightcuts vs vpl-exact):
+/// Cornell 0.054 at a unit of diagonal/40, 0.037 at the diagonal; Sponza (diagonal 41.6 m)
+/// 0.053 at diagonal/4, 0.044 at the diagonal, 0.041 at 1 m (the thesis' own scene and
+/// setting, assuming metres). A fraction small enough for Sponza loses on the Cornell box, so
+/// the diagonal it is.
+pub const LENGTH_UNIT_PER_DIAGONAL: f32 = 1.0;
+
 /// Parameters (`--set key=value`); `Default` is the thesis' setting where it gives one.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LightcutsParams {
@@ -55,8 +67,16 @@ pub struct LightcutsParams {
     pub rsm_resolution: u32,
     /// `pvpl_samples`: G-buffer samples per pVPL (thesis "a few"; ours 4).
     pub pvpl_samples: u32,
-    /// `pvpl_radius`: unit of the capped 1/x² radius (thesis: capped to 1, scene units).
-    pub pvpl_radius: f32,
+    /// `pvpl_radius`: unit of the capped 1/x² radius, in scene units; `None` (`auto`, the
+    /// default) takes [`Self::length_unit`]. The thesis caps the distribution "to 1" in scene
+    /// units, a length that means something else in every scene's units.
+    pub pvpl_radius: Option<f32>,
+    /// `profile=paper`: the thesis' absolute lengths (pVPL radius cap 1, σ_max 0.3) in scene
+    /// units; by default they are in units of the scene's diagonal
+    /// ([`LENGTH_UNIT_PER_DIAGONAL`]), so the same scene in centimetres or metres gives the same
+    /// picture. The keys the thesis leaves open keep our
+    /// values in both profiles.
+    pub paper_units: bool,
     /// `filter_radius`, `filter_sigma`: the edge-aware Gaussian (texels) [UNSPEC: ours 2, 1].
     pub filter_radius: u32,
     pub filter_sigma: f32,
@@ -71,7 +91,10 @@ pub struct LightcutsParams {
     pub sim_distance: f32,
     /// `block`: light cut block size k (thesis 8).
     pub block: u32,
-    /// `v_min`, `sigma_max`: Eq. 5.6 (thesis 0.7, 0.3; σ_z is the variance along the normal).
+    /// `v_min`, `sigma_max`: Eq. 5.6 (thesis 0.7, 0.3; σ_z is the variance along the normal,
+    /// a squared length). `flatness.sigma_max` holds the thesis' 0.3 in units of
+    /// [`Self::length_unit`]²: scene units with `profile=paper`, the diagonal by default (see
+    /// [`Self::flatness`]).
     pub flatness: Flatness,
     /// `half_res`: GI at half resolution + joint bilateral upsampling (thesis option; off).
     pub half_res: bool,
@@ -87,7 +110,8 @@ impl Default for LightcutsParams {
             vpl_count: 4096,
             rsm_resolution: 512,
             pvpl_samples: 4,
-            pvpl_radius: 1.0,
+            pvpl_radius: None,
+            paper_units: false,
             filter_radius: 2,
             filter_sigma: 1.0,
             defensive: 0.05,
@@ -120,7 +144,11 @@ impl LightcutsParams {
             vpl_count: power_of_two("vpl_count", params.u32("vpl_count", d.vpl_count, 2, 1 << 20)?)?,
             rsm_resolution: power_of_two("rsm_resolution", params.u32("rsm_resolution", d.rsm_resolution, 2, 4096)?)?,
             pvpl_samples: params.u32("pvpl_samples", d.pvpl_samples, 0, 256)?,
-            pvpl_radius: params.f32("pvpl_radius", d.pvpl_radius, 1e-6, f32::MAX)?,
+            pvpl_radius: match params.text("pvpl_radius", "auto").as_str() {
+                "auto" => None,
+                _ => Some(params.f32("pvpl_radius", 1.0, 1e-6, f32::MAX)?),
+            },
+            paper_units: params.choice("profile", "default", &["default", "paper"])? == "paper",
             filter_radius: params.u32("filter_radius", d.filter_radius, 0, 16)?,
             filter_sigma: params.f32("filter_sigma", d.filter_sigma, 1e-3, 100.0)?,
             defensive: params.f32("defensive", d.defensive, 0.0, 1.0)?,
@@ -143,12 +171,26 @@ impl LightcutsParams {
     }
 
     /// The VPL generation settings for a scene of diagonal `diag`.
+    /// The length the thesis' absolute thresholds (the pVPL radius cap, σ_max) are measured in
+    /// for a scene of diagonal `diag`: 1 scene unit under `profile=paper`, else
+    /// [`LENGTH_UNIT_PER_DIAGONAL`] of the diagonal.
+    pub fn length_unit(&self, diag: f32) -> f32 {
+        if self.paper_units { 1.0 } else { LENGTH_UNIT_PER_DIAGONAL * diag }
+    }
+
+    /// Eq. 5.6's thresholds in scene units for a scene of diagonal `diag` (σ_z is a variance, so
+    /// σ_max scales with the unit squared).
+    pub fn flatness(&self, diag: f32) -> Flatness {
+        let u = self.length_unit(diag);
+        Flatness { v_min: self.flatness.v_min, sigma_max: self.flatness.sigma_max * u * u }
+    }
+
     pub fn vpl_params(&self, diag: f32) -> vpl::VplParams {
         vpl::VplParams {
             count: self.vpl_count,
             rsm_resolution: self.rsm_resolution,
             pvpl_samples: self.pvpl_samples,
-            pvpl_radius: self.pvpl_radius,
+            pvpl_radius: self.pvpl_radius.unwrap_or(self.length_unit(diag)),
             filter_radius: self.filter_radius,
             filter_sigma: self.filter_sigma,
             defensive: self.defensive,

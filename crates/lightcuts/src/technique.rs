@@ -65,7 +65,7 @@ impl VplTechnique {
             Variant::Lightcuts => (
                 "vpl-lightcuts",
                 Some("vpl-exact"),
-                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 half_res",
+                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
             ),
             Variant::Sst => (
                 "vpl-sst",
@@ -165,7 +165,7 @@ impl Technique for VplTechnique {
         let vpls = stats.time("generate vpls", || vpl::generate(&ctx.frame, &ctx.tracer, gbuffer, &vp, seed, ctx.frame_index));
         let sorted = stats.time("sort vpls", || sort_vpls(&vpls.vpls));
         let counters = &mut self.counters;
-        let tree = stats.time("build sst", || Sst::build_parallel(&sorted, p.flatness, counters));
+        let tree = stats.time("build sst", || Sst::build_parallel(&sorted, p.flatness(diag), counters));
 
         // The GI grid: full resolution, or half with joint bilateral upsampling.
         let half = p.half_res && self.variant != Variant::Exact;

@@ -715,18 +715,20 @@ fn check_18_rmse_trends_against_vpl_exact() {
     let ctx = FrameContext::new(&scene, 0.0, 64, 48);
     let g = ctx.gbuffer();
     let small = ["rsm_resolution=128", "vpl_count=1024", "direct_samples=1"];
-    let (truth, _) = render(Variant::Exact, 1, 4, &small, &ctx, &g);
+    // One RMSE varies 2× from seed to seed at this size, so the mean over 3 seeds is compared;
+    // the VPLs are the seed's, so each seed has its own truth.
+    let seeds = [4u64, 5, 6];
+    let truths: Vec<Image> = seeds.iter().map(|&seed| render(Variant::Exact, 1, seed, &small, &ctx, &g).0).collect();
     let mut table = Vec::new();
     for n in [8u32, 32] {
         let mut row = Vec::new();
         for v in [Variant::Lightcuts, Variant::Rtslc, Variant::Sst] {
-            // Mean RMSE over 3 seeds of the pixel streams (the VPLs are the seed's: same seed as truth).
-            let (img, _) = render(v, n, 4, &small, &ctx, &g);
-            row.push(rmse(&img, &truth, None).unwrap());
+            let total: f64 = seeds.iter().zip(&truths).map(|(&seed, truth)| rmse(&render(v, n, seed, &small, &ctx, &g).0, truth, None).unwrap()).sum();
+            row.push(total / seeds.len() as f64);
         }
         table.push(row);
     }
-    println!("RMSE vs vpl-exact (64×48 cornell, 1024 VPLs): [proposed, RTSLC, SST] n=8 {:.5?}, n=32 {:.5?}", table[0], table[1]);
+    println!("mean RMSE over 3 seeds vs vpl-exact (64×48 cornell, 1024 VPLs): [proposed, RTSLC, SST] n=8 {:.5?}, n=32 {:.5?}", table[0], table[1]);
     for row in &table {
         assert!(row[0] < row[2], "proposed below SST at equal sample count");
         assert!(row[0] < 1.5 * row[1], "proposed close to RTSLC");
