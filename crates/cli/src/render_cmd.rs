@@ -147,7 +147,25 @@ pub fn run(a: RenderArgs) -> Result<()> {
         throughput,
         a.output.display()
     );
+    // What the technique measured or chose from the scene (ε, the automatic budgets, the cell
+    // size a fixed resolution gives this scene), so a parameter that could not be chosen well
+    // is visible beside the time.
+    let measured: Vec<String> = prepare.metrics.iter().chain(&render.metrics).map(|(k, v)| format!("{k}={}", format_measure(*v))).collect();
+    if !measured.is_empty() {
+        println!("{}: {}", a.technique, measured.join(", "));
+    }
     Ok(())
+}
+
+/// Whole numbers as such, small ones in scientific notation, others to 4 decimals.
+fn format_measure(v: f64) -> String {
+    if v.fract() == 0.0 && v.abs() < 1e15 {
+        format!("{v:.0}")
+    } else if v.abs() < 1e-3 {
+        format!("{v:.3e}")
+    } else {
+        format!("{v:.4}")
+    }
 }
 
 /// Renders `ctx.film.samples` passes, pass `p` shading primary sample `p` of every pixel (and

@@ -59,3 +59,30 @@ fn eval_play_and_bench_take_the_scene_overrides() {
     assert!(!bad.status.success() && text(&bad).contains("--env sky.png"), "{}", text(&bad));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `--scale` renders the same picture in other units; a scale that is not a positive number is
+/// an error naming the option.
+#[test]
+fn scale_keeps_the_picture_and_rejects_nonsense() {
+    let dir = std::env::temp_dir().join(format!("glimpse-scale-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    // The --light is in the scaled units (the overrides come after the scale).
+    let render = |scale: &str, light: &str| {
+        let out = dir.join(format!("scale-{scale}.exr"));
+        let o = glimpse(
+            &["render", "glossy", "-t", "lights-exact", "--light", light, "--size", "16x12", "--scale", scale, "-o", out.to_str().unwrap()],
+            &dir,
+        );
+        (o, out)
+    };
+    let (a, a_out) = render("1", "point:0,1.5,0:4");
+    let (b, b_out) = render("100", "point:0,150,0:40000");
+    assert!(a.status.success() && b.status.success(), "{}{}", text(&a), text(&b));
+    let (a, b) = (glimpse_core::Image::read(&a_out).unwrap(), glimpse_core::Image::read(&b_out).unwrap());
+    let worst = a.pixels.iter().zip(&b.pixels).map(|(p, q)| (*p - *q).abs().max_element() / p.max_element().max(1e-3)).fold(0.0, f32::max);
+    println!("--scale 100 vs 1: worst relative pixel difference {worst:e}");
+    assert!(worst < 1e-3, "--scale 100 changed the picture: {worst}");
+    let (bad, _) = render("0", "point:0,1.5,0:4");
+    assert!(!bad.status.success() && text(&bad).contains("--scale 0"), "{}", text(&bad));
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -32,7 +32,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             Some(image)
         };
         let Some(base) = render(&scene, 1) else { continue };
-        let mean = |img: &glimpse_core::Image| img.pixels.iter().map(|p| p.element_sum() as f64 / 3.0).sum::<f64>() / img.pixels.len() as f64;
+        let mean =
+            |img: &glimpse_core::Image| img.pixels.iter().map(|p| p.element_sum() as f64 / 3.0).sum::<f64>() / img.pixels.len() as f64;
         let m0 = mean(&base).max(1e-12);
         let compare = |img: Option<glimpse_core::Image>| match img {
             Some(img) => {

@@ -723,12 +723,16 @@ fn check_18_rmse_trends_against_vpl_exact() {
     for n in [8u32, 32] {
         let mut row = Vec::new();
         for v in [Variant::Lightcuts, Variant::Rtslc, Variant::Sst] {
-            let total: f64 = seeds.iter().zip(&truths).map(|(&seed, truth)| rmse(&render(v, n, seed, &small, &ctx, &g).0, truth, None).unwrap()).sum();
+            let total: f64 =
+                seeds.iter().zip(&truths).map(|(&seed, truth)| rmse(&render(v, n, seed, &small, &ctx, &g).0, truth, None).unwrap()).sum();
             row.push(total / seeds.len() as f64);
         }
         table.push(row);
     }
-    println!("mean RMSE over 3 seeds vs vpl-exact (64×48 cornell, 1024 VPLs): [proposed, RTSLC, SST] n=8 {:.5?}, n=32 {:.5?}", table[0], table[1]);
+    println!(
+        "mean RMSE over 3 seeds vs vpl-exact (64×48 cornell, 1024 VPLs): [proposed, RTSLC, SST] n=8 {:.5?}, n=32 {:.5?}",
+        table[0], table[1]
+    );
     for row in &table {
         assert!(row[0] < row[2], "proposed below SST at equal sample count");
         assert!(row[0] < 1.5 * row[1], "proposed close to RTSLC");

@@ -26,7 +26,17 @@ pub struct SceneOverrides {
 
 impl Default for SceneOverrides {
     fn default() -> Self {
-        Self { scale: 1.0, filter: None, film_samples: None, env: None, env_scale: 1.0, sun: None, sun_radiance: 3.0, lights: Vec::new(), camera: None }
+        Self {
+            scale: 1.0,
+            filter: None,
+            film_samples: None,
+            env: None,
+            env_scale: 1.0,
+            sun: None,
+            sun_radiance: 3.0,
+            lights: Vec::new(),
+            camera: None,
+        }
     }
 }
 
@@ -79,8 +89,7 @@ impl SceneOverrides {
         });
         format!(
             "{} {:?} {:?} {env:?} {} {:?} {} {:?} {:?}",
-            self.scale,
-            self.filter, self.film_samples, self.env_scale, self.sun, self.sun_radiance, self.lights, self.camera
+            self.scale, self.filter, self.film_samples, self.env_scale, self.sun, self.sun_radiance, self.lights, self.camera
         )
     }
 }

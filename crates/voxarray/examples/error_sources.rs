@@ -19,7 +19,13 @@ use glimpse_voxarray::{VoxArray, VoxArrayParams};
 fn surface_lights(scene: &glimpse_scene::Scene, n: usize, offset: f32) -> Vec<glimpse_scene::Light> {
     let tris = scene.at(0.0).world_triangles();
     let areas: Vec<f32> = tris.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).collect();
-    let cdf: Vec<f32> = areas.iter().scan(0.0, |acc, a| { *acc += a; Some(*acc) }).collect();
+    let cdf: Vec<f32> = areas
+        .iter()
+        .scan(0.0, |acc, a| {
+            *acc += a;
+            Some(*acc)
+        })
+        .collect();
     let total = cdf.last().copied().unwrap_or(0.0);
     let mut rng = glimpse_core::Rng::new(7, 0);
     (0..n)
@@ -105,6 +111,8 @@ fn main() {
     println!("wrongly visible, blocker from start: {fv_start:?}");
     println!("wrongly visible, blocker from light: {fv_end:?}");
     println!("wrongly shadowed, segment length:    {fi_len:?}");
-    let e = glimpse_render::metrics::epsilon::epsilon(&frame, &g, &tracer, frame.lights.len(), |_, ps, s| a.occluded_from_surface(ps, s.normal));
+    let e = glimpse_render::metrics::epsilon::epsilon(&frame, &g, &tracer, frame.lights.len(), |_, ps, s| {
+        a.occluded_from_surface(ps, s.normal)
+    });
     println!("{} lights: ε_v {:.2} %, |ε_s| {:.2} %", e.lights, 100.0 * e.all.epsilon_v(), 100.0 * e.all.epsilon_s_abs());
 }
