@@ -60,7 +60,7 @@ impl VplTechnique {
             Variant::Exact => (
                 "vpl-exact",
                 None,
-                "one-bounce GI from the VPLs of bounded RSMs (Tavasszy 2021): every VPL with an exact shadow ray (the thesis' ground truth); vpl_count=4096 rsm_resolution=512 clamp include_direct",
+                "one-bounce GI from the VPLs of bounded RSMs (Tavasszy 2021): every VPL with an exact shadow ray (the thesis' ground truth); vpl_count=4096 rsm_resolution=auto (per light: 64 texels per VPL, up to 512) clamp include_direct profile=paper",
             ),
             Variant::Lightcuts => (
                 "vpl-lightcuts",

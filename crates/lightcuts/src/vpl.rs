@@ -46,8 +46,11 @@ impl Similarity {
 pub struct VplParams {
     /// Total VPL count N (a power of two: the tree is perfect). Thesis: 4096.
     pub count: u32,
-    /// RSM resolution per light (a power of two for the mip pyramid). Thesis: 512.
+    /// RSM resolution per light (a power of two for the mip pyramid). Thesis: 512. The largest
+    /// with `rsm_per_light`.
     pub rsm_resolution: u32,
+    /// Each light's RSM sized by its VPL count ([`rsm_resolution_for`]).
+    pub rsm_per_light: bool,
     /// G-buffer samples per pVPL (thesis: "a few"; ours 4).
     pub pvpl_samples: u32,
     /// Unit of the 1/x² sample radius, capped to 1 (thesis: 1 scene unit).
@@ -308,6 +311,17 @@ pub fn selection_pdf(rsm: &Rsm, gbuffer: &GBuffer, params: &VplParams, rng_seed:
         .collect()
 }
 
+/// RSM texels per VPL in the thesis' setting: one 512² map for 4,096 VPLs.
+pub const RSM_TEXELS_PER_VPL: f64 = 64.0;
+
+/// The RSM resolution of a light that gets `vpls` VPLs: [`RSM_TEXELS_PER_VPL`] texels per VPL,
+/// as a power of two between 16 and `max` (a light's PDF is then as finely resolved per VPL as
+/// the thesis' one light's, whatever the number of lights).
+pub fn rsm_resolution_for(vpls: u32, max: u32) -> u32 {
+    let side = (RSM_TEXELS_PER_VPL * vpls as f64).sqrt().ceil() as u32;
+    side.next_power_of_two().clamp(16.min(max), max)
+}
+
 /// Generates this frame's VPLs: per light (one at a time: constant memory), RSM → PDF → mips →
 /// warped randomized Hammersley points → VPLs with flux Φ/(N_l p). Seeded by `seed` and
 /// `frame_index` only, so every technique of one command sees the same VPLs.
@@ -316,7 +330,6 @@ pub fn generate(frame: &SceneFrame, tracer: &ExactTracer, gbuffer: &GBuffer, par
     let lights = rsm_lights(frame, &mut rng);
     let counts = allocate(params.count, &lights.iter().map(light_power).collect::<Vec<_>>());
     let mut set = VplSet { per_light: counts.clone(), ..Default::default() };
-    let r = params.rsm_resolution;
     for (li, (light, &n_l)) in lights.iter().zip(&counts).enumerate() {
         let jitter = rng.next_2d() - Vec2::splat(0.5);
         let shift = rng.next_2d();
@@ -324,6 +337,7 @@ pub fn generate(frame: &SceneFrame, tracer: &ExactTracer, gbuffer: &GBuffer, par
         if n_l == 0 {
             continue;
         }
+        let r = if params.rsm_per_light { rsm_resolution_for(n_l, params.rsm_resolution) } else { params.rsm_resolution };
         let rsm = Rsm::build(frame, tracer, light, r, jitter);
         let pdf = selection_pdf(&rsm, gbuffer, params, light_seed);
         let mips = mip_pyramid(&pdf, r);

@@ -820,3 +820,32 @@ fn vpls_from_every_light_kind_share_the_budget_by_power() {
     );
     assert!(flux > 0.0 && (flux / luminance(set.pvpl_flux) - 1.0).abs() < 0.25);
 }
+
+/// `rsm_resolution=auto` (the default) sizes each light's RSM by the VPLs it gets at the thesis'
+/// 64 texels per VPL (its one light: 512² for 4,096); a number or `profile=paper` gives every
+/// light that size.
+#[test]
+fn rsm_size_follows_each_lights_vpls() {
+    let rsm_resolution_for = vpl::rsm_resolution_for;
+    assert_eq!(rsm_resolution_for(4096, 512), 512);
+    assert_eq!(rsm_resolution_for(1024, 512), 256);
+    assert_eq!(rsm_resolution_for(100, 512), 128);
+    assert_eq!(rsm_resolution_for(1, 512), 16);
+    assert_eq!(rsm_resolution_for(1 << 20, 512), 512);
+    let read = |pairs: &[&str]| LightcutsParams::read(&params(pairs), Variant::Lightcuts).unwrap();
+    assert!(read(&[]).rsm_per_light);
+    assert!(!read(&["rsm_resolution=256"]).rsm_per_light && read(&["rsm_resolution=256"]).rsm_resolution == 256);
+    assert!(!read(&["profile=paper"]).rsm_per_light && read(&["profile=paper"]).rsm_resolution == 512);
+    // Two lights: the dimmer one's map is smaller, so the per-light working set shrinks.
+    let mut scene = glimpse_scene::builtin::cornell_lit();
+    scene.lights.truncate(2);
+    scene.lights[1].intensity *= 0.05;
+    let ctx = FrameContext::new(&scene, 0.0, 32, 24);
+    let g = ctx.gbuffer();
+    let diag = ctx.frame.bounds.extent().length();
+    let generate = |pairs: &[&str]| vpl::generate(&ctx.frame, &ctx.tracer, &g, &read(pairs).vpl_params(diag), 3, 0);
+    let (auto, fixed) = (generate(&["vpl_count=1024"]), generate(&["vpl_count=1024", "rsm_resolution=512"]));
+    println!("VPLs per light {:?}; largest working set {} vs {} bytes", auto.per_light, auto.memory_bytes, fixed.memory_bytes);
+    assert_eq!(auto.per_light, fixed.per_light);
+    assert!(auto.memory_bytes < fixed.memory_bytes / 2);
+}
