@@ -64,6 +64,17 @@ fn main() {
     let a = VoxArray::build(&frame, &p);
     let cell = a.grid().cell_size_world();
     println!("{scene_name}: {} lights, cell {cell:.3} m", frame.lights.len());
+    if let Some(c) = a.compression() {
+        println!(
+            "compression: {} rows, {} distinct, dictionary {}, mapped per step {:?}, random {} ({:.2} %)",
+            c.rows,
+            c.distinct_rows,
+            c.dictionary_rows,
+            c.mapped_at_step,
+            c.random,
+            100.0 * c.random as f64 / c.rows.max(1) as f64
+        );
+    }
     // Histograms in cells: [0,1), [1,2), [2,4), [4,8), [8,16), [16,∞).
     let bin = |c: f32| match c {
         c if c < 1.0 => 0,

@@ -99,8 +99,8 @@ impl VoxArrayParams {
     }
 
     /// Reads `resolution`, `directions`, `bias`, `bias_light`, `normal_offset`,
-    /// `skip_start_run`, `compress`, `dictionary`, `cluster`,
-    /// `steps`, with `self` as the defaults.
+    /// `skip_start_run`, `compress`, `dictionary`, `cluster`, `steps` and `profile`
+    /// (`paper`: the 1M-row dictionary), with `self` as the defaults.
     pub fn read(self, params: &Params) -> Result<Self, ParamError> {
         let invalid = |key: &str, v: u32, m: &str| ParamError::Invalid { key: key.into(), value: v.to_string(), message: m.into() };
         let resolution = params.u32("resolution", self.resolution, 32, 128)?;
@@ -111,7 +111,15 @@ impl VoxArrayParams {
         if !directions.is_multiple_of(2) {
             return Err(invalid("directions", directions, "must be even (the φ+90° transposition)"));
         }
-        let c = self.compress.unwrap_or_default();
+        // `profile=paper`: the paper's 1M-row dictionary instead of ours (every distinct row up
+        // to 16M, `compress::DEFAULT_DICTIONARY_ROWS`).
+        let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+        let c = match self.compress {
+            Some(c) if paper && c.dictionary_rows == CompressParams::default().dictionary_rows => CompressParams::paper(),
+            Some(c) => c,
+            None if paper => CompressParams::paper(),
+            None => CompressParams::default(),
+        };
         let compress = params.bool("compress", self.compress.is_some())?;
         let dictionary_rows = params.u32("dictionary", c.dictionary_rows, 1, 1 << 24)?;
         let steps = params.u32("steps", c.steps, 0, 8)?;
