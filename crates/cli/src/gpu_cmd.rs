@@ -1,7 +1,9 @@
 //! `glimpse bench gpu SCENE`: the exact tracer on the GPU (glimpse-gpu, wgpu + WGSL) beside the
 //! CPU `ExactTracer` on the same AO rays from the same GBuffer: the adapter, per-kernel GPU times
 //! from timestamp queries (upload, any-hit, closest-hit), rays/s, and how many answers agree;
-//! then a `roma` row: ROMA's GPU build and snapped query on the same rays (glimpse-roma `gpu`).
+//! then a `roma` row: ROMA's GPU build and snapped query on the same rays (glimpse-roma `gpu`),
+//! a `voxarray` row (glimpse-voxarray `gpu`), and an `env-dvf` row: one GPU frame of env-dvf, the
+//! rebuild included, against one of the GPU env-exact at `--size` (glimpse-dvf `gpu::bench`).
 //! Built only with `--features gpu`; without it the command explains how to get it.
 
 use anyhow::Result;
@@ -12,7 +14,7 @@ use clap::Args;
 #[cfg_attr(not(feature = "gpu"), allow(dead_code))]
 pub struct GpuArgs {
     pub scene: String,
-    /// GBuffer size the AO rays start from.
+    /// GBuffer size the AO rays start from, and the frame size of the env-dvf row.
     #[arg(long, default_value = "256x256", value_parser = crate::args::parse_size)]
     pub size: (u32, u32),
     /// AO rays traced (drawn from every GBuffer pixel that sees geometry).
@@ -48,7 +50,7 @@ pub fn run(a: GpuArgs) -> Result<()> {
     crate::args::check_scene(&a.scene)?;
     let scene = glimpse_scene::load(&a.scene).with_context(|| format!("loading {}", a.scene))?;
     let frame = scene.at(0.0);
-    let ctx = GpuContext::new()?;
+    let ctx = std::sync::Arc::new(GpuContext::new()?);
     println!("adapter: {}", ctx.describe());
     if let Some(note) = ctx.software_note() {
         println!("note: {note}");
@@ -127,6 +129,10 @@ pub fn run(a: GpuArgs) -> Result<()> {
     }
     // The voxel array's query on the GPU, on the same rays (glimpse-voxarray's `gpu` module).
     glimpse_voxarray::gpu::print_bench_row(&ctx, &frame, &rays, any_kernel)?;
+    // env-dvf (its defaults: N_r = 128) against env-exact, one frame each at --size.
+    for line in glimpse_dvf::gpu::bench(&ctx, &scene, a.size, a.seed, glimpse_dvf::DvfParams::default())?.lines() {
+        println!("{line}");
+    }
     if let Some(note) = ctx.software_note() {
         println!("note: {note}");
     }

@@ -1,6 +1,7 @@
 //! The DVF on the GPU (feature `gpu`; docs/gpu.md, "DVF"): the paper's compute passes rebuilt
 //! every frame in WGSL (`gpu/*.wgsl`, beside this file) on the [`glimpse_gpu`] helper API, and
-//! env-dvf's shading ([`GpuEnvDvf`]).
+//! env-dvf's shading ([`GpuEnvDvf`]); [`bench()`] times a frame of it against the GPU `env-exact`
+//! (`glimpse bench gpu`).
 //!
 //! Passes of one frame ([`GpuDvf::build`], timed by name):
 //! 1. `areas` (CS1): per triangle, area and normal from the world-space vertices the CPU uploads
@@ -38,6 +39,9 @@ use glimpse_scene::SceneFrame;
 use glimpse_trace::GBuffer;
 use std::sync::Arc;
 use thiserror::Error;
+
+pub mod bench;
+pub use bench::{DvfBench, bench};
 
 const TRACE: &str = include_str!("../../gpu/src/trace.wgsl");
 const EXACT_F64: &str = include_str!("../../gpu/src/exact_f64.wgsl");

@@ -7,7 +7,7 @@
 
 use glimpse_dvf::areas::{WorldMesh, areas_and_normals};
 use glimpse_dvf::field::{PointSample, SampleSettings, point_sample};
-use glimpse_dvf::gpu::{DvfGpuError, GpuDvf, GpuEnvDvf};
+use glimpse_dvf::gpu::{DvfBench, DvfGpuError, GpuDvf, GpuEnvDvf, bench};
 use glimpse_dvf::grid::Grid;
 use glimpse_dvf::points::{PointSampling, Rounding, Task, first_sample_id, sample_count};
 use glimpse_dvf::scan::exclusive_scan;
@@ -263,4 +263,31 @@ fn bad_settings_are_errors() {
         println!("{what}: {e}");
     }
     ctx.check().unwrap();
+}
+
+/// `gpu::bench`, the `env-dvf` row of `glimpse bench gpu`: a frame of each technique at the same
+/// N_r, the field's budget, kernel times when the adapter has timestamps, and the speed-up line;
+/// a scene without an environment is a skip with its reason, not an error.
+#[test]
+fn bench_times_env_dvf_against_env_exact() {
+    let Some(ctx) = GpuContext::for_test("DVF bench") else { return };
+    let ctx = Arc::new(ctx);
+    let keys = DvfParams::default().read(&Params::parse(&["rays=8", "points=500", "grid=6"]).unwrap()).unwrap();
+    let skipped = bench(&ctx, &glimpse_scene::load("cornell").unwrap(), (8, 6), 1, keys).unwrap();
+    println!("{}", skipped.lines().join("\n"));
+    assert!(matches!(&skipped, DvfBench::Skipped(why) if why.contains("no environment map")));
+
+    let measured = bench(&ctx, &glimpse_scene::load("cornell-lit").unwrap(), (16, 12), 1, keys).unwrap();
+    let lines = measured.lines();
+    println!("{}", lines.join("\n"));
+    let DvfBench::Measured(row) = measured else { panic!("cornell-lit has an environment: {lines:?}") };
+    assert_eq!((row.width, row.height, row.rays, row.points, row.grid), (16, 12, 8, 500, 6));
+    assert!(row.exact_rays > 0 && row.exact_rays <= 16 * 12 * 8, "env-exact traced {} rays", row.exact_rays);
+    assert!(row.dvf.wall_ms > 0.0 && row.exact.wall_ms > 0.0);
+    if ctx.has_timestamps() {
+        let named = |n: &str| row.dvf.kernels.iter().any(|k| k.name == n);
+        assert!(named("areas") && named("field") && named("labels") && named("shade"), "{:?}", row.dvf.kernels);
+        assert!(row.exact.kernel_ms.is_some_and(|ms| ms > 0.0));
+    }
+    assert!(lines.len() == 3 && lines[2].starts_with("env-dvf speed-up") && lines[2].contains("x; issue #18"), "{lines:?}");
 }

@@ -193,6 +193,16 @@ impl GpuEnvExact {
         glimpse_render::require(scene, "env-exact", Need::Environment)?;
         Ok(Self { cpu: EnvExact::new(settings, params)?, exact: GpuExact::new(gpu) })
     }
+
+    /// Rays per pixel (`rays`, N_r).
+    pub fn rays(&self) -> u32 {
+        self.cpu.rays
+    }
+
+    /// Per-kernel GPU times of the last render (timestamps; empty without them).
+    pub fn last_times(&self) -> &[crate::KernelTime] {
+        &self.exact.last_times
+    }
 }
 
 impl Technique for GpuEnvExact {
