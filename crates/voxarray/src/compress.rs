@@ -39,6 +39,10 @@ pub struct CompressParams {
 /// error_sources -- scenes/suite/sponza-interior.toml 96 64 dictionary=N`).
 pub const DEFAULT_DICTIONARY_ROWS: u32 = 1 << 24;
 
+/// Dictionary rows the down-sampled steps (c ≥ 1) match against: the paper's whole 1M-row
+/// dictionary, the most frequent 1M rows of a larger one (bounds the lookup tables' memory).
+pub const DOWNSAMPLED_MATCH_ROWS: usize = 1 << 20;
+
 impl Default for CompressParams {
     fn default() -> Self {
         Self { dictionary_rows: DEFAULT_DICTIONARY_ROWS, steps: 4, seed: 0 }
@@ -279,9 +283,13 @@ impl<R: Row> Finder<R> {
             .filter(|&f| f <= R::BITS)
             .map(|f| {
                 let keep: R = group_starts(f);
+                // Exact matches (f = 1) against the whole dictionary; down-sampled ones against
+                // its most frequent DOWNSAMPLED_MATCH_ROWS rows, so a full 16M-row dictionary
+                // does not build three more 16M-entry tables.
+                let candidates = if f == 1 { dictionary } else { &dictionary[..dictionary.len().min(DOWNSAMPLED_MATCH_ROWS)] };
                 let mut keyed: FxHashMap<R, u32> = FxHashMap::default();
-                keyed.reserve(dictionary.len());
-                for (k, &d) in dictionary.iter().enumerate() {
+                keyed.reserve(candidates.len());
+                for (k, &d) in candidates.iter().enumerate() {
                     keyed.entry(simplify_with(d, f, keep)).or_insert(k as u32);
                 }
                 (f, keep, keyed)
