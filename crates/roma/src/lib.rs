@@ -16,6 +16,7 @@
 //! chosen at run time), and implements [`Visibility`] and [`ClosestHit`] for arbitrary rays by
 //! snapping them (see [`Roma`]'s notes on what that means for agreement with exact rays).
 
+pub mod auto;
 pub mod directions;
 pub mod generate;
 #[cfg(feature = "gpu")]
@@ -58,11 +59,21 @@ pub struct RomaParams {
     pub origin_offset_cells: f32,
     /// Texel columns an un-snapped ray may visit (paper §4.2: 8 for soft shadows).
     pub dda_steps: u32,
+    /// `n=auto`: `n` is chosen from the scene at the first prepare ([`RomaParams::resolve_n`]).
+    pub auto_n: bool,
 }
 
 impl Default for RomaParams {
     fn default() -> Self {
-        Self { resolution: 128, n: 4, voxelization: Voxelization::PAPER, jitter: true, origin_offset_cells: 1.5, dda_steps: 8 }
+        Self {
+            resolution: 128,
+            n: 4,
+            voxelization: Voxelization::PAPER,
+            jitter: true,
+            origin_offset_cells: 1.5,
+            dda_steps: 8,
+            auto_n: false,
+        }
     }
 }
 
@@ -83,9 +94,13 @@ impl RomaParams {
             "conservative" => Voxelization::Conservative,
             _ => Voxelization::PAPER,
         };
+        // `n=auto` where the technique defaults to it (ao-roma, gi-roma), unless `profile=paper`.
+        let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+        let auto_n = params.text("n", if self.auto_n && !paper { "auto" } else { "" }) == "auto";
         Ok(Self {
             resolution,
-            n: params.u32("n", self.n, 1, 32)?,
+            n: if auto_n { self.n } else { params.u32("n", self.n, 1, 32)? },
+            auto_n,
             voxelization,
             jitter: params.bool("jitter", self.jitter)?,
             origin_offset_cells: params.f32("offset", self.origin_offset_cells, 0.0, 16.0)?,
@@ -95,6 +110,23 @@ impl RomaParams {
 }
 
 impl RomaParams {
+    /// Resolves `n=auto` on `frame` seen by `camera` ([`auto`]); returns the share of escaping
+    /// AO rays it measured, `None` when `n` was given.
+    pub fn resolve_n(
+        &mut self,
+        frame: &SceneFrame,
+        tracer: &glimpse_trace::ExactTracer,
+        camera: &glimpse_scene::Camera,
+        seed: u64,
+    ) -> Option<f32> {
+        if !self.auto_n {
+            return None;
+        }
+        let escape = auto::escape_fraction(frame, tracer, camera, seed);
+        (self.n, self.auto_n) = (auto::choose_n(escape), false);
+        Some(escape)
+    }
+
     /// Bytes of one build, for the memory budget: n² maps of R² texels of R bits, plus the BOM
     /// and the bit array Generate reads it through (R³ bits each).
     pub fn estimated_bytes(&self) -> u64 {

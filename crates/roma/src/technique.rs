@@ -56,6 +56,8 @@ impl RomaState {
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
+        // n=auto is chosen once, at the first frame (the history assumes one n).
+        let escape = self.params.resolve_n(&ctx.frame, &ctx.tracer, &ctx.camera, self.settings.seed);
         let p = &self.params;
         let what = format!("ROMA: {}² occupancy maps of {}³ bits", p.n, p.resolution);
         glimpse_core::memory_budget::check(what, p.estimated_bytes())?;
@@ -67,6 +69,10 @@ impl RomaState {
         // The resolution is the paper's maximum (128-bit texels), not chosen from the scene: the
         // cell it gives this scene is what bounds the error (reported, as the voxel array's).
         stats.metrics.push(("cell_m".to_owned(), roma.cell_size_world() as f64));
+        stats.metrics.push(("n".to_owned(), p.n as f64));
+        if let Some(e) = escape {
+            stats.metrics.push(("escape_fraction".to_owned(), e as f64));
+        }
         self.roma = Some(roma);
         Ok(stats)
     }
@@ -95,7 +101,7 @@ impl AoRoma {
     }
 
     pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        let state = RomaState::new(settings, params, RomaParams::default(), false)?;
+        let state = RomaState::new(settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
         Ok(Self { state, radius: params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)? })
     }
 }
@@ -277,7 +283,7 @@ impl GiRoma {
                 message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
             });
         }
-        let state = RomaState::new(settings, params, RomaParams::default(), false)?;
+        let state = RomaState::new(settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
         let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
         Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
     }
