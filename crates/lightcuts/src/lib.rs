@@ -148,20 +148,22 @@ impl LightcutsParams {
     /// clamp and the direct light, so eval's reference sees the same VPL set).
     pub fn read(params: &Params, variant: Variant) -> Result<Self, ParamError> {
         let d = Self::default();
+        let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+        let rsm_auto = params.text("rsm_resolution", "auto") == "auto";
         let mut p = Self {
             vpl_count: power_of_two("vpl_count", params.u32("vpl_count", d.vpl_count, 2, 1 << 20)?)?,
-            rsm_resolution: match params.text("rsm_resolution", "auto").as_str() {
-                "auto" => d.rsm_resolution,
-                _ => power_of_two("rsm_resolution", params.u32("rsm_resolution", d.rsm_resolution, 2, 4096)?)?,
+            rsm_resolution: if rsm_auto {
+                d.rsm_resolution
+            } else {
+                power_of_two("rsm_resolution", params.u32("rsm_resolution", d.rsm_resolution, 2, 4096)?)?
             },
-            rsm_per_light: params.text("rsm_resolution", "auto") == "auto"
-                && params.choice("profile", "default", &["default", "paper"])? != "paper",
+            rsm_per_light: rsm_auto && !paper,
             pvpl_samples: params.u32("pvpl_samples", d.pvpl_samples, 0, 256)?,
             pvpl_radius: match params.text("pvpl_radius", "auto").as_str() {
                 "auto" => None,
                 _ => Some(params.f32("pvpl_radius", 1.0, 1e-6, f32::MAX)?),
             },
-            paper_units: params.choice("profile", "default", &["default", "paper"])? == "paper",
+            paper_units: paper,
             filter_radius: params.u32("filter_radius", d.filter_radius, 0, 16)?,
             filter_sigma: params.f32("filter_sigma", d.filter_sigma, 1e-3, 100.0)?,
             defensive: params.f32("defensive", d.defensive, 0.0, 1.0)?,

@@ -136,7 +136,7 @@ pub struct GpuAoRoma {
 impl GpuAoRoma {
     pub fn new(gpu: Arc<GpuContext>, _scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         // The CPU `AoRoma::new`'s reads, in its order.
-        let state = GpuRomaState::new("ao-roma", gpu, settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
+        let state = GpuRomaState::new("ao-roma", gpu, settings, params, RomaParams::with_auto_n(), false)?;
         let radius = params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)?;
         Ok(Self { state, radius })
     }
@@ -271,7 +271,7 @@ impl GpuGiRoma {
                 message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
             });
         }
-        let state = GpuRomaState::new("gi-roma", gpu, settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
+        let state = GpuRomaState::new("gi-roma", gpu, settings, params, RomaParams::with_auto_n(), false)?;
         let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
         Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
     }

@@ -110,6 +110,11 @@ impl RomaParams {
 }
 
 impl RomaParams {
+    /// The defaults of `ao-roma` and `gi-roma`: the paper's, with `n=auto` ([`auto`]).
+    pub fn with_auto_n() -> Self {
+        Self { auto_n: true, ..Self::default() }
+    }
+
     /// Resolves `n=auto` on `frame` seen by `camera` ([`auto`]); returns the share of escaping
     /// AO rays it measured, `None` when `n` was given.
     pub fn resolve_n(

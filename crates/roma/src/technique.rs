@@ -95,13 +95,13 @@ impl AoRoma {
             id: "ao-roma",
             family: "ambient occlusion",
             reference: Some("ao-exact"),
-            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=4 offset=1.5 accumulate=10)",
+            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=auto (4 or 8) offset=1.5 accumulate=10; profile=paper: n=4)",
             create: |_: &Scene, settings, params| Ok(Box::new(AoRoma::new(settings, params)?)),
         }
     }
 
     pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        let state = RomaState::new(settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
+        let state = RomaState::new(settings, params, RomaParams::with_auto_n(), false)?;
         Ok(Self { state, radius: params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)? })
     }
 }
@@ -283,7 +283,7 @@ impl GiRoma {
                 message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
             });
         }
-        let state = RomaState::new(settings, params, RomaParams { auto_n: true, ..RomaParams::default() }, false)?;
+        let state = RomaState::new(settings, params, RomaParams::with_auto_n(), false)?;
         let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
         Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
     }

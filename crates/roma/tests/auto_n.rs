@@ -7,7 +7,7 @@ use glimpse_roma::RomaParams;
 use glimpse_roma::auto::{CLOSED_ESCAPE_FRACTION, choose_n, escape_fraction};
 
 fn read(pairs: &[&str]) -> RomaParams {
-    RomaParams { auto_n: true, ..RomaParams::default() }.read(&Params::parse(pairs).unwrap(), false).unwrap()
+    RomaParams::with_auto_n().read(&Params::parse(pairs).unwrap(), false).unwrap()
 }
 
 #[test]
