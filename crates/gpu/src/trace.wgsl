@@ -30,7 +30,8 @@ struct Hit {
 struct Params {
     ray_count: u32,
     node_count: u32,
-    pad: u32,
+    // Always 0, but unknown to the compiler: see `unfused`.
+    zero: u32,
     box_exit_scale: f32,
 }
 
@@ -47,7 +48,17 @@ const STACK_SIZE: u32 = 192u;
 @group(0) @binding(5) var<storage, read_write> hits_out: array<Hit>;
 
 // `exact_difference(a, b, c, d)`: a·b − c·d as exactly as the CPU's double-precision
-// fallback; one of exact_f64.wgsl or exact_fma.wgsl is appended here by `GpuTracer::new`.
+// fallback, and `div_rounded(a, b)`: a / b as the CPU rounds it; one of exact_f64.wgsl or
+// exact_fma.wgsl is appended here by `GpuTracer::new`.
+
+// `v` with its bits OR-ed with `params.zero` (0): a product passed through this cannot be fused
+// with the add or subtract that follows it. The CPU rounds each product before the add; a GPU
+// compiler may contract `a·b − c·d` into an fma, which moves an edge function by an ulp and
+// flips rays through shared edges (on an NVIDIA H200, 204 of 120,523 parity rays answered
+// otherwise than the CPU before the tracer's products were guarded; lavapipe fuses too).
+fn unfused(v: vec3<f32>) -> vec3<f32> {
+    return bitcast<vec3<f32>>(bitcast<vec3<u32>>(v) | vec3<u32>(params.zero));
+}
 
 // `PreparedRay::intersect_along`: (t, b1, b2, 1) for a hit with 0 < t < t_max, else w = 0.
 fn intersect(ray: Ray, prim: u32, t_max: f32) -> vec4<f32> {
@@ -59,10 +70,10 @@ fn intersect(ray: Ray, prim: u32, t_max: f32) -> vec4<f32> {
     let c = triangles[3u * prim + 2u].xyz - ray.origin;
     let z = vec3<f32>(a[kz], b[kz], c[kz]);
     // Sheared into the ray's space: x = (ax, bx, cx), y = (ay, by, cy).
-    let x = vec3<f32>(a[kx], b[kx], c[kx]) - z * ray.shear.x;
-    let y = vec3<f32>(a[ky], b[ky], c[ky]) - z * ray.shear.y;
+    let x = vec3<f32>(a[kx], b[kx], c[kx]) - unfused(z * ray.shear.x);
+    let y = vec3<f32>(a[ky], b[ky], c[ky]) - unfused(z * ray.shear.y);
     // Edge functions (w, u, v): w = bx·ay − by·ax, u = cx·by − cy·bx, v = ax·cy − ay·cx.
-    var edges = x.yzx * y - y.yzx * x;
+    var edges = unfused(x.yzx * y) - unfused(y.yzx * x);
     if (any(edges == vec3<f32>(0.0))) {
         // Exactly on an edge in single precision: decide all three as exactly as the CPU's
         // double-precision recomputation.
@@ -82,7 +93,7 @@ fn intersect(ray: Ray, prim: u32, t_max: f32) -> vec4<f32> {
     if (det == 0.0) {
         return vec4<f32>(0.0);
     }
-    let weighted = edges * (z * ray.shear.z).zxy;
+    let weighted = unfused(edges * (z * ray.shear.z).zxy);
     var t_scaled = weighted.y + weighted.z + weighted.x;
     var det_abs = det;
     if (det < 0.0) {
@@ -92,8 +103,8 @@ fn intersect(ray: Ray, prim: u32, t_max: f32) -> vec4<f32> {
     if (t_scaled <= 0.0 || t_scaled >= t_max * det_abs) {
         return vec4<f32>(0.0);
     }
-    let inv = 1.0 / det;
-    return vec4<f32>(t_scaled / det_abs, v * inv, w * inv, 1.0);
+    let inv = div_rounded(1.0, det);
+    return vec4<f32>(div_rounded(t_scaled, det_abs), v * inv, w * inv, 1.0);
 }
 
 // `Ray4::enter`: which of the node's children the ray enters before t_max (bits), and where.

@@ -303,7 +303,10 @@ fn prepare_ray(origin: vec3<f32>, dir: vec3<f32>) -> Ray {
     let kx = (kz + 1u) % 3u;
     let ky = (kz + 2u) % 3u;
     let shear = vec3<f32>(div_exact(dir[kx], dir[kz]), div_exact(dir[ky], dir[kz]), div_exact(1.0, dir[kz]));
-    return Ray(origin, kz, inv, bitcast<f32>(F32_INF), shear, 0u);
+    // t_max = ∞ read through the uniform's zero: a compiler may treat an infinite constant as it
+    // likes (Vulkan keeps infinities only under SignedZeroInfNanPreserve, which naga does not ask
+    // for), but not a value it cannot see.
+    return Ray(origin, kz, inv, bitcast<f32>(F32_INF | params.zero), shear, 0u);
 }
 
 // Any hit along the ray from `origin` (t_max = ∞), by trace.wgsl's exact traversal.
