@@ -154,9 +154,17 @@ impl WaveCache {
                 c.meshes.push(mc);
                 continue;
             }
-            let m = plan.points[i];
-            let samples = points::poisson_points(wm, m, seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
+            let two_sided = p.back_sides.contains(&(i as u32));
+            let m = if two_sided { plan.points[i] / 2 } else { plan.points[i] };
+            let mut samples = points::poisson_points(wm, m, seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
             let r_max = points::r_max(areas[i], samples.len());
+            if two_sided {
+                // The back side's points: the same positions, both normals turned over, so they
+                // cache the back hemisphere's light (and the query's normal term picks the side).
+                let backs: Vec<_> =
+                    samples.iter().map(|s| points::SurfaceSample { normal: -s.normal, shading_normal: -s.shading_normal, ..*s }).collect();
+                samples.extend(backs);
+            }
             let map_res = plan.map_res[i];
             let baked = bake::bake_points(&integ, samples, class, map_res, p, seed.wrapping_add(i as u64 * 7919), tick);
             rays += baked.rays;
@@ -585,7 +593,10 @@ pub fn plan_points(scene: &glimpse_scene::Scene, p: &WavecacheParams, inst_class
                 if areas[i] <= 0.0 {
                     return 0;
                 }
-                ((budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round() as usize).max(p.min_points as usize)
+                let one_side =
+                    ((budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round() as usize).max(p.min_points as usize);
+                // Both sides of an instance whose back is seen: the same density on each.
+                if p.back_sides.contains(&(i as u32)) { 2 * one_side } else { one_side }
             })
             .collect();
         let instance_paths: Vec<u64> = points.iter().enumerate().map(|(i, &m)| m as u64 * per_point(i)).collect();

@@ -147,6 +147,11 @@ pub struct WavecacheParams {
     pub disk_cache: bool,
     /// Show a progress bar during the precomputation.
     pub progress: bool,
+    /// Instances whose back faces the camera sees (not a key: [`technique`] finds them with
+    /// probe rays before the precomputation). Their cache points are made on both sides: a point
+    /// caches the light of one hemisphere, and one-sided points would hand the front's light to a
+    /// back face (the light inside a Cornell box on the outside of its wall).
+    pub back_sides: Vec<u32>,
 }
 
 impl Default for WavecacheParams {
@@ -182,6 +187,7 @@ impl Default for WavecacheParams {
             wo_frame: WoFrame::Reflect,
             disk_cache: true,
             progress: true,
+            back_sides: Vec::new(),
         }
     }
 }
@@ -264,6 +270,7 @@ impl WavecacheParams {
             },
             disk_cache: params.bool("cache", base.disk_cache)?,
             progress: params.bool("progress", base.progress)?,
+            back_sides: Vec::new(),
         })
     }
 

@@ -52,6 +52,26 @@ pub fn clear_coat_fresnel(cos_oh: f32, gamma: f32) -> f32 {
     (0.04 + 0.96 * (1.0 - cos_oh).clamp(0.0, 1.0).powi(5)) * gamma
 }
 
+/// The instances whose back faces the camera sees, from 128 primary rays across (the image's
+/// aspect): their cache points are made on both sides ([`WavecacheParams::back_sides`]).
+fn back_sides_seen(ctx: &FrameContext) -> Vec<u32> {
+    use rayon::prelude::*;
+    let w = 128u32;
+    let h = ((w as f32 * ctx.height as f32 / ctx.width.max(1) as f32).round() as u32).max(1);
+    let mut seen: Vec<u32> = (0..w * h)
+        .into_par_iter()
+        .filter_map(|i| {
+            let ray = ctx.camera.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5, w, h);
+            let hit = ctx.tracer.closest_hit(&ray, f32::INFINITY)?;
+            let sp = glimpse_trace::SurfacePoint::from_hit(&ctx.frame, &ray, &hit);
+            (!sp.front_face).then_some(sp.instance)
+        })
+        .collect();
+    seen.sort_unstable();
+    seen.dedup();
+    seen
+}
+
 impl Wavecache {
     pub fn info() -> TechniqueInfo {
         TechniqueInfo {
@@ -81,7 +101,10 @@ impl Wavecache {
     }
 
     fn ensure_cache(&mut self, ctx: &FrameContext, stats: &mut Stats) -> Result<(), RenderError> {
-        let key = stats.time("cache key", || cache_key(&ctx.frame, &self.params, self.settings.seed));
+        let mut params = self.params.clone();
+        params.back_sides = stats.time("back sides", || back_sides_seen(ctx));
+        stats.metrics.push(("two_sided_instances".to_owned(), params.back_sides.len() as f64));
+        let key = stats.time("cache key", || cache_key(&ctx.frame, &params, self.settings.seed));
         if self.cache.as_ref().is_some_and(|c| c.key == key) {
             self.source = "memory";
             return Ok(());
@@ -97,7 +120,7 @@ impl Wavecache {
             }
         }
         // The ray budget, turned into paths at this scene's measured path length.
-        let mut p = self.params.clone();
+        let mut p = params;
         if p.ray_budget > 0 {
             let rays_per_path = stats
                 .time("path-length pilot", || crate::cache::mean_rays_per_path(&ctx.frame, &ctx.tracer, &self.params, self.settings.seed));
@@ -252,8 +275,11 @@ impl<'a> Runtime<'a> {
         Self { cache, params, frame, vis, classes, traced, emitters }
     }
 
-    /// The cache point chosen for (x, n) on instance `inst`.
-    pub fn lookup(&self, inst: u32, x: Vec3, n: Vec3) -> Option<&'a CachePoint> {
+    /// The cache point chosen for (x, n) on instance `inst`, on the side of the geometric normal
+    /// `ng`: a point of the other side caches the other hemisphere's light, so none is found
+    /// there (a back face the camera did not see when the cache was made gets no cached light,
+    /// rather than the front's).
+    pub fn lookup(&self, inst: u32, x: Vec3, n: Vec3, ng: Vec3) -> Option<&'a CachePoint> {
         let mc = self.cache.meshes.get(inst as usize)?;
         if mc.point_count == 0 {
             return None;
@@ -267,7 +293,7 @@ impl<'a> Runtime<'a> {
             max_candidates: self.params.query_m,
         };
         let i = points::query_points(nodes, pts, &q, x, n)?;
-        pts.get(i as usize)
+        pts.get(i as usize).filter(|p| Vec3::from(p.normal).dot(ng) > 0.0)
     }
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
@@ -305,7 +331,7 @@ impl<'a> Runtime<'a> {
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
-                let Some(p) = self.lookup(s.instance, s.position, ns) else {
+                let Some(p) = self.lookup(s.instance, s.position, ns, s.normal) else {
                     return Vec3::ZERO;
                 };
                 let e = self
@@ -319,7 +345,7 @@ impl<'a> Runtime<'a> {
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let Some(p) = self.lookup(s.instance, s.position, ns) else {
+                let Some(p) = self.lookup(s.instance, s.position, ns, s.normal) else {
                     return Vec3::ZERO;
                 };
                 let np = Vec3::from(p.shading_normal);
