@@ -328,6 +328,19 @@ fn convert_material(m: &tobj::Material, textures: &mut TextureCache, scene: &mut
     if let Some(ke) = ke {
         mat.emission = rgb(ke);
     }
+    // An ambient colour above 1 is a light in some exporters' files (embree's Cornell box, as
+    // tinyobjloader ships it: `Ka 20 20 20`, no `Ke`); MTL has no such meaning, so it is said,
+    // not guessed.
+    if let (None, Some(ka)) = (ke, m.ambient)
+        && ka.iter().any(|&c| c > 1.0)
+    {
+        let ka = format!("{} {} {}", ka[0], ka[1], ka[2]);
+        scene.warnings.push(format!(
+            "{}: material '{}': 'Ka {ka}' is brighter than 1 and there is no 'Ke': some exporters store emission in Ka, glimpse reads it from Ke only (add 'Ke {ka}' to make it a light)",
+            obj.display(),
+            m.name,
+        ));
+    }
     if let Some(ns) = m.shininess {
         mat.roughness = roughness_from_ns(ns);
     }

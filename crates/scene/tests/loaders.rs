@@ -395,7 +395,8 @@ fn obj_materials_textures_uv_flip_and_warnings() {
         "m.mtl",
         "newmtl shiny\nKd 0.2 0.4 0.6\nNs 100\nmap_Kd -s 1 1 1 tex.png\n\n\
          newmtl lamp\nKd 0.5\nKe 3 2 1\nPr 0.3\nPm 0.7\n\n\
-         newmtl lost\nKd 0.1 0.1 0.1\nmap_Kd missing.png\n",
+         newmtl lost\nKd 0.1 0.1 0.1\nmap_Kd missing.png\n\n\
+         newmtl ambient_lamp\nKa 20 20 20\nKd 1 1 1\n",
     );
     let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nvn 0 0 1\n\
                usemtl shiny\nf 1/1/1 2/2/1 3/3/1 4/4/1\n\
@@ -416,6 +417,12 @@ fn obj_materials_textures_uv_flip_and_warnings() {
     assert!(scene.warnings.iter().any(|w| w.contains("missing.png")), "a missing texture is a warning naming it");
     assert!(scene.warnings.iter().any(|w| w.contains("nowhere")), "an unknown usemtl is a warning");
     assert!(scene.warnings.iter().any(|w| w.contains("1 point and line")));
+    // embree's Cornell box (as tinyobjloader ships it) puts its light in Ka: said, not read.
+    assert!(
+        scene.warnings.iter().any(|w| w.contains("'ambient_lamp'") && w.contains("Ke 20 20 20")),
+        "an ambient colour above 1 is a warning that says how to make it a light"
+    );
+    assert!(!scene.warnings.iter().any(|w| w.contains("'shiny'") && w.contains("Ka")), "no warning for an ordinary material");
 
     let quad = &scene.meshes[0];
     let tex = shiny.base_color_texture.unwrap();
