@@ -288,7 +288,7 @@ impl Buffers {
             trace: uniform_buffer(
                 ctx,
                 "dvf trace params",
-                &TraceParams { ray_count: 0, node_count: 0, _pad: 0, box_exit_scale: BOX_EXIT_SCALE },
+                &TraceParams { ray_count: 0, node_count: 0, zero: 0, box_exit_scale: BOX_EXIT_SCALE },
             ),
         })
     }
@@ -490,7 +490,7 @@ impl GpuDvf {
         grew += b.labels.reserve(ctx, 4 * cells as u64)? as u64;
         self.reallocations += grew;
         let scene = self.scene.as_ref().ok_or(DvfGpuError::NotBuilt)?;
-        write(ctx, &b.trace, &[TraceParams { ray_count: 0, node_count: scene.node_count, _pad: 0, box_exit_scale: BOX_EXIT_SCALE }])?;
+        write(ctx, &b.trace, &[TraceParams { ray_count: 0, node_count: scene.node_count, zero: 0, box_exit_scale: BOX_EXIT_SCALE }])?;
         let uniform = BuildUniform {
             counts: [k as u32, p.points, (p.rounding == Rounding::Round) as u32, (p.sampling == PointSampling::Hammersley) as u32],
             rays: [if p.build_rays == 0 { p.rays } else { p.build_rays }, p.both_sides as u32, p.rotate_about_normal as u32, p.octahedral],

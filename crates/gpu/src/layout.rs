@@ -85,7 +85,9 @@ pub struct TraceParams {
     pub ray_count: u32,
     /// Nodes in the BVH (0: an empty scene, every ray misses).
     pub node_count: u32,
-    pub _pad: u32,
+    /// Always 0: the kernels OR it into products so the compiler cannot fuse them into the add
+    /// that follows (`unfused` in trace.wgsl) and into `t_max = ∞` (DVF's rays).
+    pub zero: u32,
     /// `1 + 2γ₃`, the slab test's conservative exit scale, computed in f32 as the CPU does.
     pub box_exit_scale: f32,
 }

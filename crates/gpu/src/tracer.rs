@@ -115,7 +115,7 @@ impl GpuTracer {
             let result = if any_hit { &mut self.occluded_out } else { &mut self.hits_out };
             result.reserve(ctx, (batch.len() * size_of::<T>()) as u64)?;
             let params =
-                TraceParams { ray_count: batch.len() as u32, node_count: scene.node_count, _pad: 0, box_exit_scale: BOX_EXIT_SCALE };
+                TraceParams { ray_count: batch.len() as u32, node_count: scene.node_count, zero: 0, box_exit_scale: BOX_EXIT_SCALE };
             write(ctx, &self.params, &[params])?;
             let (kernel, binding) = if any_hit { (&self.any_hit, 4) } else { (&self.closest, 5) };
             // Bind groups are cheap next to a chunk of rays; making one per chunk keeps them in
@@ -142,6 +142,6 @@ impl GpuTracer {
 
 impl TraceParams {
     fn zeroed_with_scale() -> Self {
-        Self { ray_count: 0, node_count: 0, _pad: 0, box_exit_scale: BOX_EXIT_SCALE }
+        Self { ray_count: 0, node_count: 0, zero: 0, box_exit_scale: BOX_EXIT_SCALE }
     }
 }

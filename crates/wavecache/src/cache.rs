@@ -154,7 +154,7 @@ impl WaveCache {
                 c.meshes.push(mc);
                 continue;
             }
-            let two_sided = p.back_sides.contains(&(i as u32));
+            let two_sided = p.two_sided(i);
             let m = if two_sided { plan.points[i] / 2 } else { plan.points[i] };
             let mut samples = points::poisson_points(wm, m, seed ^ (i as u64).wrapping_mul(0x2545_f491_4f6c_dd1d));
             let r_max = points::r_max(areas[i], samples.len());
@@ -596,7 +596,7 @@ pub fn plan_points(scene: &glimpse_scene::Scene, p: &WavecacheParams, inst_class
                 let one_side =
                     ((budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round() as usize).max(p.min_points as usize);
                 // Both sides of an instance whose back is seen: the same density on each.
-                if p.back_sides.contains(&(i as u32)) { 2 * one_side } else { one_side }
+                if p.two_sided(i) { 2 * one_side } else { one_side }
             })
             .collect();
         let instance_paths: Vec<u64> = points.iter().enumerate().map(|(i, &m)| m as u64 * per_point(i)).collect();

@@ -147,8 +147,8 @@ pub struct WavecacheParams {
     pub disk_cache: bool,
     /// Show a progress bar during the precomputation.
     pub progress: bool,
-    /// Instances whose back faces the camera sees (not a key: [`technique`] finds them with
-    /// probe rays before the precomputation). Their cache points are made on both sides: a point
+    /// Instances whose back faces the camera sees, sorted (not a `--set` key: [`technique`] finds
+    /// them with probe rays before the precomputation; part of the cache key). Their cache points are made on both sides: a point
     /// caches the light of one hemisphere, and one-sided points would hand the front's light to a
     /// back face (the light inside a Cornell box on the outside of its wall).
     pub back_sides: Vec<u32>,
@@ -272,6 +272,11 @@ impl WavecacheParams {
             progress: params.bool("progress", base.progress)?,
             back_sides: Vec::new(),
         })
+    }
+
+    /// Whether instance `i` gets cache points on both sides ([`WavecacheParams::back_sides`]).
+    pub fn two_sided(&self, i: usize) -> bool {
+        self.back_sides.binary_search(&(i as u32)).is_ok()
     }
 
     /// Radiance-map resolution for a roughness: Table 2 / `map_scale` (at least 4).
