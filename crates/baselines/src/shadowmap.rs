@@ -289,7 +289,7 @@ pub(crate) mod tests {
         for i in (0..g.len()).filter(|&i| g.is_hit(i)) {
             let s = Shading::from_gbuffer(&g, i).unwrap();
             for (l, light) in frame.lights.iter().enumerate() {
-                let ps = direct::punctual(light, s.position, s.normal);
+                let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
                 if s.cos(ps.wi) <= 0.0 {
                     continue;
                 }

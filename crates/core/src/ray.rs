@@ -20,18 +20,38 @@ impl Ray {
     }
 
     /// A ray leaving a surface point, its origin pushed off the surface along the normal (on the
-    /// side the ray goes) by an offset that scales with the point's magnitude, so that the
-    /// surface itself is never hit again at `t ≈ 0`.
-    pub fn spawn(point: Vec3, normal: Vec3, dir: Vec3) -> Self {
+    /// side the ray goes) by [`offset_origin`], so that the surface itself is never hit again at
+    /// `t ≈ 0`. `error_scale` is the magnitude the point's rounding error is relative to
+    /// ([`error_scale`]).
+    pub fn spawn(point: Vec3, normal: Vec3, error_scale: f32, dir: Vec3) -> Self {
         let n = if normal.dot(dir) < 0.0 { -normal } else { normal };
-        Self { origin: offset_origin(point, n), dir }
+        Self { origin: offset_origin(point, n, error_scale), dir }
     }
 }
 
-/// Moves `p` off the surface along `n` by a small offset relative to the coordinates' magnitude
-/// (a simplified form of Wächter and Binder's "A Fast and Robust Method for Avoiding
-/// Self-Intersection", Ray Tracing Gems ch. 6).
-pub fn offset_origin(p: Vec3, n: Vec3) -> Vec3 {
-    let scale = p.abs().max_element().max(1.0);
-    p + n * (1e-4 * scale)
+/// The offset of a ray origin off its surface, relative to [`error_scale`]: hundreds of times the
+/// point's rounding-error bound (γ₇ ≈ 4.2·10⁻⁷ of it).
+pub const RAY_OFFSET: f32 = 1e-4;
+
+/// The magnitude a point interpolated from a triangle's vertices, `Σ bᵢ·pᵢ`, carries its rounding
+/// error relative to: the largest coordinate of `Σ |bᵢ·pᵢ|` (pbrt-v4 eq. 6.21 without its γ₇).
+/// It is at least the point's own largest coordinate, and exceeds it where the point lies near
+/// the origin on a triangle that reaches far from it. It scales with the scene: no absolute
+/// length enters the offset.
+pub fn error_scale(p: &[Vec3; 3], b: [f32; 3]) -> f32 {
+    ((p[0] * b[0]).abs() + (p[1] * b[1]).abs() + (p[2] * b[2]).abs()).max_element()
+}
+
+/// Moves `p` off the surface along `n` by [`RAY_OFFSET`] × the larger of `p`'s largest coordinate
+/// and `error_scale` (a simplified form of Wächter and Binder's "A Fast and Robust Method for
+/// Avoiding Self-Intersection", Ray Tracing Gems ch. 6, with pbrt-v4's error bound in place of an
+/// absolute floor). A point that is not on a surface (a light's position) passes 0.
+///
+/// The offset had an absolute floor of 10⁻⁴ scene units (as Mitsuba 3's `spawn_ray` has), which
+/// is 5 % of a scene 2 mm across; relative to the error scale, a scene renders the same at any
+/// scale (`crates/eval/tests/scale_invariance.rs`).
+#[inline]
+pub fn offset_origin(p: Vec3, n: Vec3, error_scale: f32) -> Vec3 {
+    let scale = p.abs().max_element().max(error_scale);
+    p + n * (RAY_OFFSET * scale)
 }

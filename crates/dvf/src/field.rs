@@ -16,7 +16,7 @@
 
 use crate::areas::WorldMesh;
 use crate::grid::{Grid, MAX_WORDS, Masks, octahedral_pixel};
-use crate::points::{PointSampling, Task, point_on_triangle, sample_uv};
+use crate::points::{PointSampling, Task, point_and_error_scale, sample_uv};
 use crate::rays::RaySet;
 use glimpse_core::{Ray, Rng, Vec3};
 use glimpse_trace::Visibility;
@@ -26,6 +26,8 @@ use rayon::prelude::*;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PointSample {
     pub position: Vec3,
+    /// The ray offset's scale ([`glimpse_core::ray::error_scale`]).
+    pub error_scale: f32,
     pub normal: Vec3,
     pub rays: RaySetKey,
 }
@@ -61,9 +63,9 @@ pub struct SampleSettings {
 pub fn point_sample(mesh: &WorldMesh, normal: Vec3, first_id: u64, t: &Task, i: u32, s: &SampleSettings) -> PointSample {
     let k = t.triangle as usize;
     let uv = sample_uv(s.sampling, mesh.indices[k], i, t.of);
-    let position = point_on_triangle(mesh.triangle(k), uv);
+    let (position, error_scale) = point_and_error_scale(mesh.triangle(k), uv);
     let mut rng = Rng::new(s.seed ^ 0xd1f_5eed, glimpse_core::sampling::mix64(first_id + i as u64) ^ s.frame_index as u64);
-    PointSample { position, normal, rays: RaySetKey { shift: rng.next_2d() } }
+    PointSample { position, error_scale, normal, rays: RaySetKey { shift: rng.next_2d() } }
 }
 
 /// Traces one sample's rays into local maps; returns the number of rays traced. The ray set is
@@ -92,7 +94,7 @@ pub fn trace_sample(
         while b != 0 {
             let k = w * 64 + b.trailing_zeros() as usize;
             b &= b - 1;
-            rays.push((Ray::spawn(p.position, p.normal, block.direction(k)), f32::INFINITY));
+            rays.push((Ray::spawn(p.position, p.normal, p.error_scale, block.direction(k)), f32::INFINITY));
             pixels.push(block.pixel[k]);
         }
     }
@@ -122,7 +124,7 @@ pub fn trace_sample_per_ray(
             continue;
         }
         traced += 1;
-        let hit = vis.occluded(&Ray::spawn(p.position, p.normal, d), f32::INFINITY);
+        let hit = vis.occluded(&Ray::spawn(p.position, p.normal, p.error_scale, d), f32::INFINITY);
         let pixel = octahedral_pixel(d, resolution);
         let word = if hit { &mut occluded[pixel as usize / 64] } else { &mut visible[pixel as usize / 64] };
         *word |= 1 << (pixel % 64);

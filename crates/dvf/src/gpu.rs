@@ -108,7 +108,7 @@ fn prelude() -> String {
         ("HALF_PI", std::f32::consts::PI / 2.0),
         ("FRAC_PI_4", std::f32::consts::FRAC_PI_4),
         ("TAU", std::f32::consts::TAU),
-        ("OFFSET", 1e-4),
+        ("OFFSET", glimpse_core::ray::RAY_OFFSET),
         ("TINY", 1e-30),
         ("HASH_ADD", 33.33),
         ("BELOW_ONE", 1.0 - f32::EPSILON / 2.0),
@@ -797,7 +797,8 @@ impl GpuEnvDvf {
             let hit = gbuffer.is_hit(i);
             let v = |v: Vec3| v.extend(0.0).to_array();
             packed.push(gbuffer.position[i].extend(f32::from_bits(hit as u32)).to_array());
-            packed.push(if hit { v(gbuffer.normal[i]) } else { v(gbuffer.view_dir[i]) });
+            // The normal's w: the position's error scale (the ray offset's scale).
+            packed.push(if hit { gbuffer.normal[i].extend(gbuffer.error_scale[i]).to_array() } else { v(gbuffer.view_dir[i]) });
             packed.push(v(gbuffer.shading_normal[i]));
             packed.push(v(gbuffer.albedo[i]));
             packed.push(v(gbuffer.emission[i]));

@@ -52,8 +52,15 @@ pub fn first_sample_id(points: u32, prefix: f32, total_area: f32, k: usize) -> u
 
 /// Eq. (2).
 pub fn point_on_triangle([a, b, c]: [Vec3; 3], r: Vec2) -> Vec3 {
+    point_and_error_scale([a, b, c], r).0
+}
+
+/// [`point_on_triangle`] and the magnitude its rounding error is relative to
+/// ([`glimpse_core::ray::error_scale`]: the offset of the rays leaving it).
+pub fn point_and_error_scale(p: [Vec3; 3], r: Vec2) -> (Vec3, f32) {
     let s = r.x.sqrt();
-    a * (1.0 - s) + b * (s * (1.0 - r.y)) + c * (s * r.y)
+    let w = [1.0 - s, s * (1.0 - r.y), s * r.y];
+    (p[0] * w[0] + p[1] * w[1] + p[2] * w[2], glimpse_core::ray::error_scale(&p, w))
 }
 
 fn fract(v: Vec3) -> Vec3 {

@@ -334,7 +334,7 @@ impl Runtime<'_> {
         };
         // `s.spawn(d)` of a traced ray: above the geometric horizon (n·d > 0, or NaN), so its
         // origin is always pushed along +n: one origin per fragment.
-        let origin = glimpse_core::ray::offset_origin(s.position, s.normal);
+        let origin = glimpse_core::ray::offset_origin(s.position, s.normal, s.error_scale);
         for k in bits(&trace) {
             batch[m] = (glimpse_core::Ray::new(origin, b.direction(k)), f32::INFINITY);
             index[m] = k;

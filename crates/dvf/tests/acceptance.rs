@@ -390,7 +390,13 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
         for t in inp.tasks.iter().step_by(7) {
             let k = t.triangle as usize;
             let ps = point_sample(&inp.mesh, inp.normals[k], inp.first_ids[k], t, t.first, &s);
-            let frag = Shading { position: ps.position, normal: ps.normal, shading_normal: ps.normal, albedo: Vec3::ONE };
+            let frag = Shading {
+                position: ps.position,
+                error_scale: ps.error_scale,
+                normal: ps.normal,
+                shading_normal: ps.normal,
+                albedo: Vec3::ONE,
+            };
             let set = RaySet::new(ps.normal, p.rays, ps.rays.shift, p.rotate_about_normal);
             let (e, _) = rt.irradiance(&frag, &set);
             let (b, _) = brute_force(&ctx.tracer, env, &frag, &set);

@@ -120,7 +120,7 @@ fn block_directions_equal_ray_set_directions() {
                 let got = b.direction(k);
                 diffs += (d.to_array().map(f32::to_bits) != got.to_array().map(f32::to_bits)) as u64;
                 pixel_diffs += (octahedral_pixel(d, r) != b.pixel[k]) as u64;
-                let s = Shading { position: Vec3::ZERO, normal: geometric, shading_normal: normal, albedo: Vec3::ONE };
+                let s = Shading { position: Vec3::ZERO, error_scale: 0.0, normal: geometric, shading_normal: normal, albedo: Vec3::ONE };
                 let used = s.cos(d) > 0.0;
                 used_diffs += (used != (b.used[k / 64] >> (k % 64) & 1 == 1)) as u64;
                 compared += 1;
@@ -274,11 +274,8 @@ fn batched_build_samples_equal_per_ray_samples() {
                 let (u, v) = if u + v > 1.0 { (1.0 - u, 1.0 - v) } else { (u, v) };
                 let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y);
                 let normal = if rng.next_f32() < 0.5 { n } else { -n };
-                let p = PointSample {
-                    position: t[0] + (t[1] - t[0]) * u + (t[2] - t[0]) * v,
-                    normal,
-                    rays: RaySetKey { shift: rng.next_2d() },
-                };
+                let (position, error_scale) = glimpse_dvf::points::point_and_error_scale(t, glimpse_core::Vec2::new(u, v));
+                let p = PointSample { position, error_scale, normal, rays: RaySetKey { shift: rng.next_2d() } };
                 let (mut v1, mut o1, mut v2, mut o2) = ([0u64; 1], [0u64; 1], [0u64; 1], [0u64; 1]);
                 let a = trace_sample(&ctx.tracer, &p, &s, 8, &mut v1, &mut o1);
                 let b = trace_sample_per_ray(&ctx.tracer, &p, &s, 8, &mut v2, &mut o2);

@@ -34,6 +34,7 @@ impl Cache {
     pub fn key(parts: &[&str], scene_spec: &str) -> String {
         let mut h = DefaultHasher::new();
         env!("CARGO_PKG_VERSION").hash(&mut h);
+        glimpse_render::RESULTS_REVISION.hash(&mut h);
         parts.hash(&mut h);
         scene_spec.hash(&mut h);
         if let Ok(meta) = std::fs::metadata(scene_spec) {

@@ -16,11 +16,11 @@ pub fn ao_rays(gbuffer: &GBuffer, spp: u32, radius: f32, seed: u64, pass: u64) -
     let mut rays = Vec::new();
     let mut pixels = Vec::new();
     for i in 0..gbuffer.len() {
-        let Some((p, n)) = gbuffer.point(i) else { continue };
+        let Some((p, n, e)) = gbuffer.point(i) else { continue };
         let frame = Frame::from_z(n);
         let mut rng = Rng::for_pixel(seed, i as u64, pass);
         for _ in 0..spp {
-            rays.push((Ray::spawn(p, n, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius));
+            rays.push((Ray::spawn(p, n, e, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius));
         }
         pixels.push(i);
     }

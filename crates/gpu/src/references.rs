@@ -135,11 +135,11 @@ impl Technique for GpuAoExact {
         let (spp, radius, seed, pass) = (self.cpu.settings.spp, self.cpu.radius, self.cpu.settings.seed, ctx.frame_index as u64);
         // `glimpse_render::ao::ambient_occlusion`'s pixel, line for line.
         let shade = |i: usize, vis: &dyn Visibility| {
-            let Some((p, n)) = gbuffer.point(i) else { return Vec3::ONE };
+            let Some((p, n, e)) = gbuffer.point(i) else { return Vec3::ONE };
             let frame = Frame::from_z(n);
             let mut rng = Rng::for_pixel(seed, i as u64, pass);
             let open =
-                (0..spp).filter(|_| !vis.occluded(&Ray::spawn(p, n, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius)).count();
+                (0..spp).filter(|_| !vis.occluded(&Ray::spawn(p, n, e, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius)).count();
             Vec3::splat(open as f32 / spp as f32)
         };
         stats.rays = stats.time("trace", || self.exact.shade("ao-exact", ctx, out, spp as usize, shade))?;

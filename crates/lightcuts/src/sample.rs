@@ -106,7 +106,9 @@ pub fn shade_point(vis: &dyn Visibility, s: &Shading, y: Vec3, ny: Vec3, color: 
     if t == Vec3::ZERO {
         return (Vec3::ZERO, 0);
     }
-    let (ray, t_max) = segment(s.position, s.normal, offset_origin(y, ny));
+    // y comes from a node's distribution, not from a triangle's vertices, so it has no error
+    // scale of its own: the receiver's stands in (the scene's magnitude; never an absolute length).
+    let (ray, t_max) = segment(s.position, s.normal, s.error_scale, offset_origin(y, ny, s.error_scale));
     if vis.occluded(&ray, t_max) { (Vec3::ZERO, 1) } else { (t, 1) }
 }
 

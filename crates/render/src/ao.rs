@@ -46,13 +46,14 @@ pub fn ambient_occlusion(
 ) -> u64 {
     out.pixels.par_iter_mut().enumerate().for_each(|(i, px)| {
         progress.add(1);
-        let Some((p, n)) = gbuffer.point(i) else {
+        let Some((p, n, e)) = gbuffer.point(i) else {
             *px = Vec3::ONE;
             return;
         };
         let frame = Frame::from_z(n);
         let mut rng = Rng::for_pixel(seed, i as u64, pass);
-        let open = (0..spp).filter(|_| !vis.occluded(&Ray::spawn(p, n, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius)).count();
+        let open =
+            (0..spp).filter(|_| !vis.occluded(&Ray::spawn(p, n, e, frame.to_world(cosine_hemisphere(rng.next_2d()))), radius)).count();
         *px = Vec3::splat(open as f32 / spp as f32);
     });
     gbuffer.instance.iter().filter(|&&i| i != glimpse_trace::gbuffer::NO_HIT).count() as u64 * spp as u64

@@ -25,6 +25,9 @@ use std::collections::HashMap;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Shading {
     pub position: Vec3,
+    /// The magnitude `position`'s rounding error is relative to (the ray offset's scale,
+    /// [`glimpse_core::ray::error_scale`]).
+    pub error_scale: f32,
     /// Unit geometric normal, facing the viewer.
     pub normal: Vec3,
     /// Unit shading normal, in `normal`'s hemisphere.
@@ -36,12 +39,24 @@ pub struct Shading {
 impl Shading {
     /// The GBuffer's surface at pixel `i`, if it sees geometry.
     pub fn from_gbuffer(g: &GBuffer, i: usize) -> Option<Self> {
-        g.is_hit(i).then(|| Self { position: g.position[i], normal: g.normal[i], shading_normal: g.shading_normal[i], albedo: g.albedo[i] })
+        g.is_hit(i).then(|| Self {
+            position: g.position[i],
+            error_scale: g.error_scale[i],
+            normal: g.normal[i],
+            shading_normal: g.shading_normal[i],
+            albedo: g.albedo[i],
+        })
     }
 
     /// A secondary hit.
     pub fn from_surface(frame: &SceneFrame, sp: &SurfacePoint) -> Self {
-        Self { position: sp.position, normal: sp.normal, shading_normal: sp.shading_normal, albedo: sp.base_color(frame) }
+        Self {
+            position: sp.position,
+            error_scale: sp.error_scale,
+            normal: sp.normal,
+            shading_normal: sp.shading_normal,
+            albedo: sp.base_color(frame),
+        }
     }
 
     /// The cosine weighting light from `wi` (unit): with the shading normal, and zero where
@@ -52,7 +67,7 @@ impl Shading {
 
     /// A ray leaving the surface along `dir`.
     pub fn spawn(&self, dir: Vec3) -> Ray {
-        Ray::spawn(self.position, self.normal, dir)
+        Ray::spawn(self.position, self.normal, self.error_scale, dir)
     }
 }
 
@@ -127,15 +142,15 @@ pub struct AreaSample {
     pub t_max: f32,
 }
 
-/// Samples the area lights from the receiver `p` (geometric normal `n`): an emissive triangle
+/// Samples the area lights from the receiver `p` (geometric normal `n`, error scale `e`): an emissive triangle
 /// with probability ∝ power (`frame.emissive_distribution`), a uniform point on it, the area
 /// density turned into solid angle (pdf = P(tri) · d² / (area · cos θ_light)). `None` when the
 /// scene has no area light or the point is behind its one-sided emitter (zero contribution).
-pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, u_pick: f32, u: Vec2) -> Option<AreaSample> {
+pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, e: f32, u_pick: f32, u: Vec2) -> Option<AreaSample> {
     let dist = frame.emissive_distribution.as_ref()?;
     let (idx, p_tri) = dist.sample_discrete(u_pick);
     let tri = &frame.emissive[idx];
-    let x = tri.sample_point(u);
+    let (x, x_scale) = tri.sample(u);
     let to = x - p;
     let d2 = to.length_squared();
     if d2 <= 0.0 || p_tri <= 0.0 {
@@ -146,13 +161,13 @@ pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, u_pick: f32, u: V
     if cos_light <= 0.0 {
         return None;
     }
-    let (shadow, t_max) = segment(p, n, offset_origin(x, tri.normal));
+    let (shadow, t_max) = segment(p, n, e, offset_origin(x, tri.normal, x_scale));
     Some(AreaSample { wi, radiance: tri.radiance, pdf: p_tri * d2 / (tri.area * cos_light), shadow, t_max })
 }
 
-/// The shadow ray from the surface point `p` (normal `n`) to the point `end`.
-pub fn segment(p: Vec3, n: Vec3, end: Vec3) -> (Ray, f32) {
-    let origin = Ray::spawn(p, n, end - p).origin;
+/// The shadow ray from the surface point `p` (normal `n`, error scale `e`) to the point `end`.
+pub fn segment(p: Vec3, n: Vec3, e: f32, end: Vec3) -> (Ray, f32) {
+    let origin = Ray::spawn(p, n, e, end - p).origin;
     let to = end - origin;
     let len = to.length();
     (Ray::new(origin, to / len.max(f32::MIN_POSITIVE)), len)
@@ -207,10 +222,11 @@ pub struct PunctualSample {
     pub t_max: f32,
 }
 
-/// Direction, irradiance and shadow segment of `light` at `p` (geometric normal `n`).
-pub fn punctual(light: &WorldLight, p: Vec3, n: Vec3) -> PunctualSample {
+/// Direction, irradiance and shadow segment of `light` at `p` (geometric normal `n`, error
+/// scale `e`).
+pub fn punctual(light: &WorldLight, p: Vec3, n: Vec3, e: f32) -> PunctualSample {
     let (wi, d, irradiance) = light.incident(p);
-    let (shadow, t_max) = if d.is_finite() { segment(p, n, light.position) } else { (Ray::spawn(p, n, wi), f32::INFINITY) };
+    let (shadow, t_max) = if d.is_finite() { segment(p, n, e, light.position) } else { (Ray::spawn(p, n, e, wi), f32::INFINITY) };
     PunctualSample { wi, irradiance, shadow, t_max }
 }
 
@@ -225,7 +241,7 @@ pub fn power_heuristic(a: f32, b: f32) -> f32 {
 /// `vis`); returns (irradiance, rays traced).
 pub fn area_irradiance(frame: &SceneFrame, vis: &dyn Visibility, s: &Shading, rng: &mut Rng) -> (Vec3, u64) {
     let (u_pick, u) = (rng.next_f32(), rng.next_2d());
-    let Some(ls) = sample_area_light(frame, s.position, s.normal, u_pick, u) else {
+    let Some(ls) = sample_area_light(frame, s.position, s.normal, s.error_scale, u_pick, u) else {
         return (Vec3::ZERO, 0);
     };
     let cos = s.cos(ls.wi);
@@ -248,7 +264,7 @@ pub fn punctual_irradiance_with(lights: &[WorldLight], s: &Shading, blocked: imp
     let mut e = Vec3::ZERO;
     let mut decisions = 0;
     for (l, light) in lights.iter().enumerate() {
-        let ps = punctual(light, s.position, s.normal);
+        let ps = punctual(light, s.position, s.normal, s.error_scale);
         let cos = s.cos(ps.wi);
         if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
             continue;
@@ -280,7 +296,7 @@ pub fn env_irradiance(env: Option<&Environment>, vis: &dyn Visibility, s: &Shadi
 /// `offset` (world) along their normals: the receiver's geometric normal and the emitter's. `None`
 /// for a sample that carries no light (behind the emitter or below the receiver).
 pub fn area_light_segment(frame: &SceneFrame, s: &Shading, u_pick: f32, u: Vec2, offset: f32) -> Option<(AreaSample, Vec3, Vec3)> {
-    let ls = sample_area_light(frame, s.position, s.normal, u_pick, u)?;
+    let ls = sample_area_light(frame, s.position, s.normal, s.error_scale, u_pick, u)?;
     if s.cos(ls.wi) <= 0.0 {
         return None;
     }

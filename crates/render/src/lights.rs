@@ -113,7 +113,7 @@ pub fn light_visibility(frame: &SceneFrame, gbuffer: &GBuffer, vis: &dyn Visibil
                 return;
             };
             for (l, light) in lights.iter().enumerate() {
-                let ps = direct::punctual(light, s.position, s.normal);
+                let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
                 if s.cos(ps.wi) > 0.0 && ps.irradiance.max_element() > 0.0 {
                     frow[l / 64] |= 1 << (l % 64);
                 }

@@ -54,6 +54,8 @@ pub struct PathTracer {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct PathVertex {
     pub position: Vec3,
+    /// The ray offset's scale ([`SurfacePoint::error_scale`]).
+    pub error_scale: f32,
     pub normal: Vec3,
     pub shading_normal: Vec3,
     pub base: Vec3,
@@ -71,6 +73,7 @@ impl PathVertex {
         let m = &frame.scene.materials[sp.material as usize];
         Self {
             position: sp.position,
+            error_scale: sp.error_scale,
             normal: sp.normal,
             shading_normal: sp.shading_normal,
             base: sp.base_color(frame),
@@ -189,7 +192,7 @@ impl PathIntegrator<'_> {
                         (2.0 * n.dot(wo) * n - wo).normalize()
                     }
                 };
-                let ray = Ray::spawn(v.position, v.normal, wi);
+                let ray = Ray::spawn(v.position, v.normal, v.error_scale, wi);
                 rays += 1;
                 let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
                     if let Some(env) = env {
@@ -212,7 +215,7 @@ impl PathIntegrator<'_> {
             let coat = ClearCoat::at(&v, model, wo);
             // Next-event estimation: area lights (MIS).
             let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
-            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, u_pick, u_area) {
+            if let Some(ls) = direct::sample_area_light(frame, v.position, v.normal, v.error_scale, u_pick, u_area) {
                 let cos = bsdf.cos(ls.wi);
                 let f = bsdf.eval(ls.wi) * coat.through;
                 if cos > 0.0 && f.max_element() > 0.0 {
@@ -232,7 +235,7 @@ impl PathIntegrator<'_> {
                     let f = bsdf.eval(d) * coat.through;
                     if f.max_element() > 0.0 {
                         rays += 1;
-                        if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, d), f32::INFINITY) {
+                        if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, v.error_scale, d), f32::INFINITY) {
                             let w = direct::power_heuristic(pdf, coat.base_probability() * bsdf.pdf(d));
                             l += beta * f * le * (cos * w / pdf);
                         }
@@ -249,7 +252,7 @@ impl PathIntegrator<'_> {
                     (&lights[k..k + 1], lights.len() as f32)
                 };
                 for light in chosen {
-                    let ps = direct::punctual(light, v.position, v.normal);
+                    let ps = direct::punctual(light, v.position, v.normal, v.error_scale);
                     let cos = bsdf.cos(ps.wi);
                     if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                         continue;
@@ -283,7 +286,7 @@ impl PathIntegrator<'_> {
                 beta *= s.f * (s.cos / s.pdf) * (coat.through / coat.base_probability());
                 (s.wi, Some(coat.base_probability() * s.pdf))
             };
-            let ray = Ray::spawn(v.position, v.normal, wi);
+            let ray = Ray::spawn(v.position, v.normal, v.error_scale, wi);
             rays += 1;
             let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
                 if let Some(env) = env {
@@ -359,6 +362,7 @@ impl PathTracer {
         } else {
             PathVertex {
                 position: g.position[i],
+                error_scale: g.error_scale[i],
                 normal: g.normal[i],
                 shading_normal: g.shading_normal[i],
                 base: g.albedo[i],

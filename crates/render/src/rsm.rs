@@ -64,6 +64,10 @@ pub struct RsmLight {
     /// The light's position (for a directional light: the centre of the map's square, placed
     /// before the scene along the light's direction).
     pub position: Vec3,
+    /// For an area light's point on its emitter, the magnitude that point's rounding error is
+    /// relative to (the offset of the rays leaving it, [`glimpse_core::ray::error_scale`]); 0
+    /// for the others, which are not on a surface.
+    pub error_scale: f32,
     /// The light's frame; z is the axis of the projection (a spot's direction, an area light's
     /// normal, a directional light's direction of travel).
     pub axes: Frame,
@@ -92,12 +96,14 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
         out.push(match l.kind {
             LightKind::Point => RsmLight {
                 position: l.position,
+                error_scale: 0.0,
                 axes: Frame::from_z(Vec3::Z),
                 emission: Emission::Isotropic(l.intensity),
                 projection: Projection::Octahedral,
             },
             LightKind::Spot { inner_angle, outer_angle } => RsmLight {
                 position: l.position,
+                error_scale: 0.0,
                 axes: Frame::from_z(l.direction),
                 emission: Emission::Spot { intensity: l.intensity, inner: inner_angle, outer: outer_angle },
                 projection: Projection::Perspective { tan_half: outer_angle.min(85f32.to_radians()).tan() },
@@ -106,6 +112,7 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
                 let radius = (frame.bounds.extent().length() * 0.5).max(1e-3) * 1.01;
                 RsmLight {
                     position: frame.bounds.center() - l.direction * 2.0 * radius,
+                    error_scale: 0.0,
                     axes: Frame::from_z(l.direction),
                     emission: Emission::Directional(l.intensity),
                     projection: Projection::Orthographic { half_extent: radius },
@@ -129,8 +136,10 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
             pick <= 0.0
         });
         let tri = tri.unwrap_or(tris.last().expect("an instance listed here has an emissive triangle"));
+        let (position, error_scale) = tri.sample(rng.next_2d());
         out.push(RsmLight {
-            position: tri.sample_point(rng.next_2d()),
+            position,
+            error_scale,
             axes: Frame::from_z(normal),
             emission: Emission::Lambertian(normal_intensity),
             projection: Projection::HemiOctahedral,
@@ -308,7 +317,7 @@ fn texel_ray(light: &RsmLight, u: Vec2) -> Option<Ray> {
             let d = light.axes.to_world(local_direction(p, u)?).normalize();
             // An area light's point lies on its own emitter: leave it along the emitter normal.
             let origin = if matches!(light.emission, Emission::Lambertian(_)) {
-                glimpse_core::ray::offset_origin(light.position, light.axes.z)
+                glimpse_core::ray::offset_origin(light.position, light.axes.z, light.error_scale)
             } else {
                 light.position
             };
@@ -367,8 +376,13 @@ mod tests {
     #[test]
     fn texel_solid_angles_cover_the_sphere_and_hemisphere() {
         for (projection, expected) in [(Projection::Octahedral, 4.0 * PI), (Projection::HemiOctahedral, 2.0 * PI)] {
-            let light =
-                RsmLight { position: Vec3::ZERO, axes: Frame::from_z(Vec3::Y), emission: Emission::Isotropic(Vec3::ONE), projection };
+            let light = RsmLight {
+                position: Vec3::ZERO,
+                error_scale: 0.0,
+                axes: Frame::from_z(Vec3::Y),
+                emission: Emission::Isotropic(Vec3::ONE),
+                projection,
+            };
             let r = 64;
             let total: f32 = (0..r * r).map(|i| texel_solid_angle(&light, i % r, i / r, r)).sum();
             println!("{projection:?}: Σ Δω = {total:.5} (expected {expected:.5})");
@@ -382,6 +396,7 @@ mod tests {
         for projection in [Projection::Octahedral, Projection::HemiOctahedral, Projection::Perspective { tan_half: 1.0 }] {
             let light = RsmLight {
                 position: Vec3::new(1.0, 2.0, 3.0),
+                error_scale: 0.0,
                 axes: Frame::from_z(Vec3::new(0.3, -1.0, 0.2).normalize()),
                 emission: Emission::Isotropic(Vec3::ONE),
                 projection,

@@ -25,11 +25,11 @@ pub fn escape_fraction(frame: &SceneFrame, tracer: &ExactTracer, camera: &Camera
     let g = GBuffer::new(frame, tracer, camera, PROBE_SIZE, PROBE_SIZE);
     let (mut hits, mut escaped) = (0u32, 0u32);
     for i in 0..g.len() {
-        let Some((p, n)) = g.point(i) else { continue };
+        let Some((p, n, e)) = g.point(i) else { continue };
         let mut rng = Rng::for_pixel(seed, i as u64, 0);
         let dir = Frame::from_z(n).to_world(cosine_hemisphere(rng.next_2d()));
         hits += 1;
-        escaped += u32::from(!tracer.occluded(&glimpse_core::Ray::spawn(p, n, dir), f32::INFINITY));
+        escaped += u32::from(!tracer.occluded(&glimpse_core::Ray::spawn(p, n, e, dir), f32::INFINITY));
     }
     if hits == 0 { 1.0 } else { escaped as f32 / hits as f32 }
 }

@@ -57,9 +57,16 @@ pub struct EmissiveTriangle {
 impl EmissiveTriangle {
     /// Uniform point on the triangle.
     pub fn sample_point(&self, u: Vec2) -> Vec3 {
+        self.sample(u).0
+    }
+
+    /// Uniform point on the triangle and the magnitude its rounding error is relative to
+    /// ([`glimpse_core::ray::error_scale`]).
+    pub fn sample(&self, u: Vec2) -> (Vec3, f32) {
         let b = glimpse_core::sampling::uniform_triangle(u);
         let [a, bb, c] = self.vertices;
-        a * (1.0 - b.x - b.y) + bb * b.x + c * b.y
+        let w = [1.0 - b.x - b.y, b.x, b.y];
+        (a * w[0] + bb * w[1] + c * w[2], glimpse_core::ray::error_scale(&self.vertices, w))
     }
 }
 

@@ -20,6 +20,8 @@ pub struct GBuffer {
     pub height: u32,
     pub camera: Camera,
     pub position: Vec<Vec3>,
+    /// The magnitude each position's rounding error is relative to ([`SurfacePoint::error_scale`]).
+    pub error_scale: Vec<f32>,
     /// Geometric normal facing the camera.
     pub normal: Vec<Vec3>,
     /// Interpolated normal in the geometric normal's hemisphere.
@@ -72,6 +74,7 @@ impl GBuffer {
             height,
             camera: camera.clone(),
             position: Vec::with_capacity(n),
+            error_scale: Vec::with_capacity(n),
             normal: Vec::with_capacity(n),
             shading_normal: Vec::with_capacity(n),
             depth: Vec::with_capacity(n),
@@ -87,6 +90,7 @@ impl GBuffer {
             match sp {
                 Some(s) => {
                     g.position.push(s.position);
+                    g.error_scale.push(s.error_scale);
                     g.normal.push(s.normal);
                     g.shading_normal.push(s.shading_normal);
                     g.depth.push((s.position - ray.origin).length());
@@ -98,6 +102,7 @@ impl GBuffer {
                 }
                 None => {
                     g.position.push(Vec3::ZERO);
+                    g.error_scale.push(0.0);
                     g.normal.push(Vec3::ZERO);
                     g.shading_normal.push(Vec3::ZERO);
                     g.depth.push(f32::INFINITY);
@@ -126,11 +131,12 @@ impl GBuffer {
 
     /// A secondary ray leaving pixel `i`'s surface along `dir`.
     pub fn spawn(&self, i: usize, dir: Vec3) -> Ray {
-        Ray::spawn(self.position[i], self.normal[i], dir)
+        Ray::spawn(self.position[i], self.normal[i], self.error_scale[i], dir)
     }
 
-    /// The surface point of pixel `i`, if it sees geometry (for spawning secondary rays).
-    pub fn point(&self, i: usize) -> Option<(Vec3, Vec3)> {
-        self.is_hit(i).then(|| (self.position[i], self.shading_normal[i]))
+    /// The surface point of pixel `i`, its shading normal and its error scale, if it sees
+    /// geometry (for spawning secondary rays).
+    pub fn point(&self, i: usize) -> Option<(Vec3, Vec3, f32)> {
+        self.is_hit(i).then(|| (self.position[i], self.shading_normal[i], self.error_scale[i]))
     }
 }

@@ -5,7 +5,8 @@
 //! - the point carries a rounding error of up to `γ₇·Σ|bᵢ·pᵢ|` per coordinate (pbrt-v4
 //!   eq. 6.21), so a ray leaving it may hit the same triangle again: [`glimpse_core::Ray::spawn`]
 //!   pushes the origin off the surface along the geometric normal, on the side the ray leaves,
-//!   by 10⁻⁴ of the coordinates' magnitude (at least 10⁻⁴), hundreds of times that bound;
+//!   by 10⁻⁴ of the magnitude that bound is relative to (`Σ|bᵢ·pᵢ|`, [`surface_point`]'s
+//!   second value), hundreds of times the bound, and with no absolute length in it;
 //! - a point on an edge shared with another mesh (a wall meeting the ceiling) also lies on
 //!   that mesh's plane, within the same rounding error, possibly on its far side; a normal
 //!   offset does not move it off that plane, and rays into the room then start behind the wall
@@ -27,6 +28,13 @@ pub fn interpolate(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, Vec3) {
     let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
     let error = ((p[0] * b[0]).abs() + (p[1] * b[1]).abs() + (p[2] * b[2]).abs()) * gamma(7);
     (point, error)
+}
+
+/// [`inset_point`]'s point and the magnitude its error is relative to
+/// ([`glimpse_core::ray::error_scale`]), which rays leaving it are offset by.
+pub fn surface_point(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, f32) {
+    let (point, error) = inset_point(p, b);
+    (point, error.max_element() / gamma(7))
 }
 
 /// How far (in multiples of the point's error bound) the inset keeps a hit from its

@@ -10,6 +10,9 @@ use glimpse_core::{Mat3, Ray, Vec2, Vec3};
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
     pub position: Vec3,
+    /// The magnitude `position`'s rounding error is relative to ([`glimpse_core::ray::error_scale`]):
+    /// rays leaving the surface are offset by 10⁻⁴ of it.
+    pub error_scale: f32,
     /// Unit geometric normal, facing the ray's origin.
     pub normal: Vec3,
     /// Unit interpolated normal (geometric where the mesh has none), in `normal`'s hemisphere.
@@ -33,7 +36,7 @@ impl SurfacePoint {
         let p = [pos[i0], pos[i1], pos[i2]].map(|v| m.transform_point3(v));
         // Interpolating the vertices is more precise than origin + t·dir for long rays; the
         // inset keeps the point off edges shared with other meshes (see `spawn`).
-        let (position, _) = crate::spawn::inset_point(&p, [b0, hit.b1, hit.b2]);
+        let (position, error_scale) = crate::spawn::surface_point(&p, [b0, hit.b1, hit.b2]);
         let raw = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or(Vec3::Y);
         let front_face = raw.dot(ray.dir) < 0.0;
         let normal = if front_face { raw } else { -raw };
@@ -49,6 +52,7 @@ impl SurfacePoint {
             if mesh.uvs.is_empty() { Vec2::new(hit.b1, hit.b2) } else { mesh.uvs[i0] * b0 + mesh.uvs[i1] * hit.b1 + mesh.uvs[i2] * hit.b2 };
         SurfacePoint {
             position,
+            error_scale,
             normal,
             shading_normal,
             front_face,
@@ -61,7 +65,7 @@ impl SurfacePoint {
 
     /// A ray leaving the surface along `dir` (either side).
     pub fn spawn(&self, dir: Vec3) -> Ray {
-        Ray::spawn(self.position, self.normal, dir)
+        Ray::spawn(self.position, self.normal, self.error_scale, dir)
     }
 
     /// Diffuse albedo: base colour × texture.

@@ -130,26 +130,68 @@ fn bunny_from_shared_agrees_100_percent() {
 
 #[test]
 fn rays_from_surfaces_do_not_hit_their_own_triangle() {
-    let scene = glimpse_scene::load("cornell").unwrap();
+    // At scale 10⁻³ the old offset floor (10⁻⁴ units) would be 5 % of the box; at 10³ the
+    // coordinates' rounding error is a thousand times larger in absolute terms.
+    for scale in [1.0, 1e-3, 1e3] {
+        let mut scene = glimpse_scene::load("cornell").unwrap();
+        scene.rescale(scale).unwrap();
+        let frame = scene.at(0.0);
+        let tracer = ExactTracer::build(&frame);
+        let cam = scene.camera_or_default(1.0);
+        let mut self_hits = 0;
+        let mut total = 0;
+        let mut rng = Rng::new(1, 2);
+        for y in 0..64 {
+            for x in 0..64 {
+                let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
+                let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
+                let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
+                let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
+                let r = sp.spawn(d);
+                if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
+                    self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
+                }
+                total += 1;
+            }
+        }
+        println!("scale {scale}: self-intersections: {self_hits} of {total} secondary rays");
+        assert_eq!(self_hits, 0);
+    }
+}
+
+/// Points near the origin on a triangle that reaches 3,000 units out carry a rounding error of
+/// about γ₇ × 3,000 ≈ 10⁻³ units, ten times the old absolute offset (10⁻⁴ · max(|p|, 1)): their
+/// rays started on the wrong side of their own triangle. The offset relative to the point's
+/// error scale (`Σ|bᵢ·pᵢ|`) clears it.
+#[test]
+fn rays_from_near_the_origin_of_a_huge_triangle_leave_it() {
+    let mut mesh = Mesh { name: "huge".into(), ..Default::default() };
+    // Tilted so that no coordinate of the plane is exactly representable everywhere.
+    let tilt = glimpse_core::Mat3::from_rotation_x(0.37) * glimpse_core::Mat3::from_rotation_z(0.21);
+    mesh.positions =
+        [Vec3::new(-3000.0, 0.0, -3000.0), Vec3::new(3000.0, 0.0, -3000.0), Vec3::new(0.0, 0.0, 3000.0)].map(|v| tilt * v).to_vec();
+    mesh.indices.push([0, 1, 2]);
+    let mut scene = Scene { name: "huge".into(), ..Default::default() };
+    scene.add_material(Material::default());
+    scene.add_mesh(mesh, Mat4::IDENTITY);
     let frame = scene.at(0.0);
     let tracer = ExactTracer::build(&frame);
-    let cam = scene.camera_or_default(1.0);
-    let mut self_hits = 0;
-    let mut total = 0;
-    let mut rng = Rng::new(1, 2);
-    for y in 0..64 {
-        for x in 0..64 {
-            let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
-            let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
-            let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
-            let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
-            let r = Ray::spawn(sp.position, sp.normal, d);
-            if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
-                self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
-            }
-            total += 1;
-        }
+    let normal = tilt * Vec3::Y;
+    let mut rng = Rng::new(9, 4);
+    let (mut self_hits, mut total) = (0, 0);
+    for _ in 0..20_000 {
+        // A camera ray down onto the plane at a point within 10⁻² of the origin.
+        let target = tilt * (Vec3::new(rng.next_f32() - 0.5, 0.0, rng.next_f32() - 0.5) * 0.02);
+        let eye = target + (normal + tilt * Vec3::new(rng.next_f32() - 0.5, 0.0, rng.next_f32() - 0.5)) * 5.0;
+        let ray = Ray::new(eye, (target - eye).normalize());
+        let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
+        let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
+        // Grazing and steep directions on the side the camera is.
+        let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
+        self_hits += tracer.occluded(&sp.spawn(d), f32::INFINITY) as u32;
+        total += 1;
     }
-    println!("self-intersections: {self_hits} of {total} secondary rays");
+    println!("near the origin of a 6,000-unit triangle: {self_hits} of {total} rays hit it again");
+    assert!(total > 19_000);
     assert_eq!(self_hits, 0);
 }

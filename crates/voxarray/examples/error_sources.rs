@@ -86,25 +86,43 @@ fn main() {
     };
     let (mut fv_start, mut fv_end, mut fi_len, mut all_len) = ([0u64; 6], [0u64; 6], [0u64; 6], [0u64; 6]);
     let (mut fv, mut fi, mut n, mut back) = (0u64, 0u64, 0u64, 0u64);
+    // How far the true segment's ends leave the row through its midpoint (cells): the angular
+    // snapping to the nearest of n×n directions, grown with the segment's length.
+    let (mut drift_all, mut drift_fi, mut drift_fv) = ([0u64; 6], [0u64; 6], [0u64; 6]);
+    let drift = |a: glimpse_core::Vec3, b: glimpse_core::Vec3| {
+        let (i, j) = glimpse_voxarray::directions::discretize(b - a, p.directions);
+        let n = p.directions;
+        let row = glimpse_voxarray::directions::row_direction(
+            glimpse_voxarray::directions::angle_rad(n, i),
+            glimpse_voxarray::directions::angle_rad(n, j),
+        );
+        let d = b - a;
+        0.5 * d.cross(row).length() / cell
+    };
     for i in 0..g.len() {
         let Some(s) = Shading::from_gbuffer(&g, i) else { continue };
         for light in &frame.lights {
-            let ps = direct::punctual(light, s.position, s.normal);
+            let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
             let facing = ps.wi.dot(s.normal) > 0.0;
             let exact = tracer.closest_hit(&ps.shadow, ps.t_max);
             let vox = a.occluded_from_surface(&ps, s.normal);
             let len = ps.t_max.min(1e6) / cell;
+            let (sa, sb) = a.surface_segment(&ps, s.normal);
+            let dr = bin(8.0 * drift(sa, sb)); // eighths of a cell
             n += 1;
             all_len[bin(len)] += 1;
+            drift_all[dr] += 1;
             match (exact, vox) {
                 (Some(hit), false) => {
                     fv += 1;
+                    drift_fv[dr] += 1;
                     back += u64::from(!facing);
                     fv_start[bin(hit.t / cell)] += 1;
                     fv_end[bin((ps.t_max - hit.t) / cell)] += 1;
                 }
                 (None, true) => {
                     fi += 1;
+                    drift_fi[dr] += 1;
                     back += u64::from(!facing);
                     fi_len[bin(len)] += 1;
                 }
@@ -122,6 +140,9 @@ fn main() {
     println!("wrongly visible, blocker from start: {fv_start:?}");
     println!("wrongly visible, blocker from light: {fv_end:?}");
     println!("wrongly shadowed, segment length:    {fi_len:?}");
+    println!("end drift off the row, all:          {drift_all:?}");
+    println!("end drift, wrongly visible:          {drift_fv:?}");
+    println!("end drift, wrongly shadowed:         {drift_fi:?}");
     let e = glimpse_render::metrics::epsilon::epsilon(&frame, &g, &tracer, frame.lights.len(), |_, ps, s| {
         a.occluded_from_surface(ps, s.normal)
     });

@@ -305,7 +305,7 @@ pub fn ray_segments(array: &VoxArray, rays: &[(Ray, f32)]) -> Vec<(Vec3, Vec3)> 
 /// light that faces the point and reaches it, with its cosine (the CPU technique's test).
 pub fn lit_samples(s: Shading, lights: &[WorldLight]) -> impl Iterator<Item = (PunctualSample, f32)> + '_ {
     lights.iter().filter_map(move |light| {
-        let ps = direct::punctual(light, s.position, s.normal);
+        let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
         let cos = s.cos(ps.wi);
         (cos > 0.0 && ps.irradiance.max_element() > 0.0).then_some((ps, cos))
     })

@@ -43,6 +43,8 @@ pub struct Tile {
     shading: Vec<Shading>,
     /// Position, geometric normal and shading normal of each slot, by component.
     p: [Vec<f32>; 3],
+    /// Each slot's error scale (the ray offset's, `Shading::error_scale`).
+    error_scale: Vec<f32>,
     n: [Vec<f32>; 3],
     sn: [Vec<f32>; 3],
     /// The irradiance summed over the lights so far, by component.
@@ -88,6 +90,8 @@ impl Tile {
             }
         }
         let slots = self.pixel.len();
+        self.error_scale.clear();
+        self.error_scale.extend(self.shading.iter().map(|s| s.error_scale));
         for c in 0..3 {
             let get = |v: Vec3| v.to_array()[c];
             for (dst, f) in [(&mut self.p[c], 0), (&mut self.n[c], 1), (&mut self.sn[c], 2)] {
@@ -201,7 +205,7 @@ impl Tile {
             }
             let slot = g * LANES + k;
             let s = &self.shading[slot];
-            let ps = direct::punctual(light, s.position, s.normal);
+            let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
             let cos = s.cos(ps.wi);
             if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                 continue;
@@ -354,8 +358,9 @@ mod avx2 {
         // `direct::segment(p, n, L)`: `Ray::spawn(p, n, L − p).origin`, then the unit direction
         // and the length to L.
         let n1 = flip(_mm256_cmp_ps::<_CMP_LT_OQ>(dot(n, to), zero), n);
-        let scale = rmax(max_element(p.map(|x| abs(x))), splat(1.0));
-        let k = _mm256_mul_ps(splat(1e-4), scale);
+        // `offset_origin`: RAY_OFFSET × max(|p|'s largest coordinate, error scale).
+        let scale = rmax(max_element(p.map(|x| abs(x))), load(&tile.error_scale[at..]));
+        let k = _mm256_mul_ps(splat(glimpse_core::ray::RAY_OFFSET), scale);
         let origin = [0, 1, 2].map(|c| _mm256_add_ps(p[c], _mm256_mul_ps(n1[c], k)));
         let to2 = [0, 1, 2].map(|c| _mm256_sub_ps(lp[c], origin[c]));
         let len = _mm256_sqrt_ps(dot(to2, to2));

@@ -355,7 +355,7 @@ fn shade_samples(vis: &Structure, ctx: &FrameContext, gbuffer: &GBuffer, lights:
                 pixel.clear();
                 for (k, s) in shading.iter().enumerate() {
                     let Some(s) = s else { continue };
-                    let ps = direct::punctual(light, s.position, s.normal);
+                    let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
                     let cos = s.cos(ps.wi);
                     if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                         continue;

@@ -101,14 +101,15 @@ impl<'a> Integrator<'a> {
         (le + l, rays + 1)
     }
 
-    /// Irradiance ∫ L cos dω at a point (geometric normal `ng`, shading `ns`) without the direct
+    /// Irradiance ∫ L cos dω at a cache point without the direct
     /// light of punctual lights (the runtime traces those): π × the radiance a white Lambertian
     /// vertex reflects.
-    pub fn irradiance(&self, p: Vec3, ng: Vec3, ns: Vec3, rng: &mut Rng) -> (Vec3, u64) {
+    pub fn irradiance(&self, s: &SurfaceSample, rng: &mut Rng) -> (Vec3, u64) {
         let v = PathVertex {
-            position: p,
-            normal: ng,
-            shading_normal: ns,
+            position: s.position,
+            error_scale: s.error_scale,
+            normal: s.normal,
+            shading_normal: s.shading_normal,
             base: Vec3::ONE,
             metallic: 0.0,
             roughness: 1.0,
@@ -117,13 +118,13 @@ impl<'a> Integrator<'a> {
             front_face: true,
         };
         let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: false };
-        let (l, rays) = self.pt().path(v, ns, start, rng);
+        let (l, rays) = self.pt().path(v, s.shading_normal, start, rng);
         (l * PI, rays)
     }
 
     /// The incident-radiance half-cube map (mean radiance per texel, row-major N×N) at a point
-    /// whose map frame is `frame` (z = its shading normal) and geometric normal `ng`.
-    pub fn radiance_map(&self, p: Vec3, ng: Vec3, frame: &Frame, res: u32, samples: u32, rng: &mut Rng) -> (Vec<[f64; 3]>, u64) {
+    /// `point` whose map frame is `frame` (z = its shading normal).
+    pub fn radiance_map(&self, point: &SurfaceSample, frame: &Frame, res: u32, samples: u32, rng: &mut Rng) -> (Vec<[f64; 3]>, u64) {
         let h = HalfCube::new(res);
         let k = (samples as f32).sqrt().ceil().max(1.0) as u32; // strata per axis
         let s_count = samples.max(1);
@@ -146,10 +147,10 @@ impl<'a> Integrator<'a> {
                         continue;
                     };
                     let dir = frame.to_world(local).normalize();
-                    if dir.dot(ng) <= 0.0 {
+                    if dir.dot(point.normal) <= 0.0 {
                         continue;
                     }
-                    let (l, r) = self.radiance_along(&Ray::spawn(p, ng, dir), rng);
+                    let (l, r) = self.radiance_along(&Ray::spawn(point.position, point.normal, point.error_scale, dir), rng);
                     rays += r;
                     if !is_finite3(l) {
                         continue;
@@ -212,7 +213,7 @@ pub fn bake_points(
             let out = match class {
                 Class::Glossy => {
                     let frame = crate::halfcube::map_frame(s.shading_normal);
-                    let (img, rays) = integ.radiance_map(s.position, s.normal, &frame, map_res, p.texel_samples, &mut rng);
+                    let (img, rays) = integ.radiance_map(s, &frame, map_res, p.texel_samples, &mut rng);
                     let mut nodes = Vec::new();
                     let t = haar::build(&img, map_res, p.radiance_beta as f64, &mut nodes);
                     let e = luminance(nodes[0].c());
@@ -221,7 +222,7 @@ pub fn bake_points(
                 _ => {
                     let (mut sum, mut rays) = (Vec3::ZERO, 0);
                     for _ in 0..p.irradiance_samples {
-                        let (e, r) = integ.irradiance(s.position, s.normal, s.shading_normal, &mut rng);
+                        let (e, r) = integ.irradiance(s, &mut rng);
                         rays += r;
                         if is_finite3(e) {
                             sum += e;

@@ -638,21 +638,19 @@ pub fn mean_rays_per_path(frame: &SceneFrame, tracer: &ExactTracer, p: &Wavecach
         return 1.0;
     }
     let integ = Integrator::new(frame, tracer, p.max_depth, p.brdf);
-    let rays: u64 = starts
-        .par_iter()
-        .enumerate()
-        .map(|(k, s)| integ.irradiance(s.position, s.normal, s.shading_normal, &mut glimpse_core::Rng::new(seed ^ 0x9170, k as u64)).1)
-        .sum();
+    let rays: u64 =
+        starts.par_iter().enumerate().map(|(k, s)| integ.irradiance(s, &mut glimpse_core::Rng::new(seed ^ 0x9170, k as u64)).1).sum();
     (rays as f64 / starts.len() as f64).max(1.0)
 }
 
 /// The disk-cache key: the scene's geometry (world transforms, positions, normals, indices),
 /// materials, textures, lights and environment, every parameter that changes the result, the seed
-/// and the crate version.
+/// and the crate version and results revision ([`glimpse_render::RESULTS_REVISION`]).
 pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
     let scene = frame.scene;
     let mut h = Fnv::default();
     h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
+    h.bytes(&glimpse_render::RESULTS_REVISION.to_le_bytes());
     // Every parameter that changes the cache (not the progress bar, the disk-cache switch or the
     // runtime-only tracing of sharp lobes).
     let p = WavecacheParams { disk_cache: true, progress: true, trace_sharp: true, ..p.clone() };

@@ -30,6 +30,8 @@ pub const MAX_DEPTH: u32 = 16;
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfaceSample {
     pub position: Vec3,
+    /// The ray offset's scale ([`glimpse_core::ray::error_scale`]).
+    pub error_scale: f32,
     pub normal: Vec3,
     pub shading_normal: Vec3,
 }
@@ -65,13 +67,14 @@ impl WorldMesh {
                 let b = glimpse_core::sampling::uniform_triangle(rng.next_2d());
                 let b0 = 1.0 - b.x - b.y;
                 let position = t[0] * b0 + t[1] * b.x + t[2] * b.y;
+                let error_scale = glimpse_core::ray::error_scale(&t, [b0, b.x, b.y]);
                 let normal = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y);
                 let ns = self.normals[i];
                 let mut shading_normal = (ns[0] * b0 + ns[1] * b.x + ns[2] * b.y).normalize_or(normal);
                 if shading_normal.dot(normal) < 0.0 {
                     shading_normal = -shading_normal;
                 }
-                SurfaceSample { position, normal, shading_normal }
+                SurfaceSample { position, error_scale, normal, shading_normal }
             })
             .collect()
     }

@@ -217,6 +217,8 @@ fn texel_ratio(base: Vec3, factor: Vec3) -> Vec3 {
 #[derive(Clone, Copy, Debug)]
 pub struct ShadePoint {
     pub position: Vec3,
+    /// The ray offset's scale ([`SurfacePoint::error_scale`]).
+    pub error_scale: f32,
     pub normal: Vec3,
     pub shading_normal: Vec3,
     pub base: Vec3,
@@ -229,6 +231,7 @@ impl ShadePoint {
     pub fn at_hit(frame: &glimpse_scene::SceneFrame, sp: &SurfacePoint) -> Self {
         Self {
             position: sp.position,
+            error_scale: sp.error_scale,
             normal: sp.normal,
             shading_normal: sp.shading_normal,
             base: sp.base_color(frame),
@@ -241,6 +244,7 @@ impl ShadePoint {
     pub fn at_pixel(g: &GBuffer, i: usize) -> Self {
         Self {
             position: g.position[i],
+            error_scale: g.error_scale[i],
             normal: g.normal[i],
             shading_normal: g.shading_normal[i],
             base: g.albedo[i],
@@ -371,7 +375,7 @@ impl<'a> Runtime<'a> {
         };
         let (mut l, mut rays) = (Vec3::ZERO, 0);
         for light in &self.frame.lights {
-            let ps = punctual(light, s.position, s.normal);
+            let ps = punctual(light, s.position, s.normal, s.error_scale);
             let cos = b.cos(ps.wi);
             if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
                 continue;
@@ -430,7 +434,7 @@ impl<'a> Runtime<'a> {
         if dir.dot(s.normal) <= 0.0 {
             return (Vec3::ZERO, 0);
         }
-        let ray = Ray::spawn(s.position, s.normal, dir);
+        let ray = Ray::spawn(s.position, s.normal, s.error_scale, dir);
         let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
             return (direct::background(self.frame, dir), 1);
         };
@@ -459,7 +463,7 @@ impl<'a> Runtime<'a> {
         let (mut l, mut rays) = (Vec3::ZERO, 0u64);
         // Area lights (MIS).
         let (u_pick, u_area) = (rng.next_f32(), rng.next_2d());
-        if let Some(ls) = direct::sample_area_light(frame, s.position, s.normal, u_pick, u_area) {
+        if let Some(ls) = direct::sample_area_light(frame, s.position, s.normal, s.error_scale, u_pick, u_area) {
             let (cos, f) = (b.cos(ls.wi), b.eval(ls.wi));
             if cos > 0.0 && f.max_element() > 0.0 {
                 rays += 1;
@@ -475,7 +479,7 @@ impl<'a> Runtime<'a> {
             let (cos, f) = (b.cos(d), b.eval(d));
             if pdf > 0.0 && cos > 0.0 && f.max_element() > 0.0 {
                 rays += 1;
-                if !self.vis.occluded(&Ray::spawn(s.position, s.normal, d), f32::INFINITY) {
+                if !self.vis.occluded(&Ray::spawn(s.position, s.normal, s.error_scale, d), f32::INFINITY) {
                     l += f * le * (cos * direct::power_heuristic(pdf, b.pdf(d)) / pdf);
                 }
             }
@@ -488,7 +492,7 @@ impl<'a> Runtime<'a> {
             return (l, rays);
         }
         let weight = bs.f * (bs.cos / bs.pdf);
-        let ray = Ray::spawn(s.position, s.normal, bs.wi);
+        let ray = Ray::spawn(s.position, s.normal, s.error_scale, bs.wi);
         rays += 1;
         let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
             if let Some(env) = env {

@@ -761,6 +761,7 @@ fn glossy_runtime_matches_direct_integration_at_a_cache_point() {
     let wo = map_frame(np).to_world(wo_grid);
     let s = ShadePoint {
         position: Vec3::from(pt.position),
+        error_scale: Vec3::from(pt.position).abs().max_element(),
         normal: Vec3::from(pt.normal),
         shading_normal: np,
         base: scene.materials[gold as usize].base_color,

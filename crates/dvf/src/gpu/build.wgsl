@@ -169,6 +169,8 @@ fn cell_of(p: vec3<f32>) -> u32 {
 
 struct Sample {
     position: vec3<f32>,
+    // `PointSample::error_scale` (the ray offset's scale).
+    error_scale: f32,
     normal: vec3<f32>,
     shift: vec2<f32>,
     cell: u32,
@@ -198,17 +200,20 @@ fn point_sample(s: u32) -> Sample {
     let i = s - count_scan[k];
     let tri = indices[k].xyz;
     let r = sample_uv(tri, i, info.x);
-    // `point_on_triangle` (Eq. 2).
+    // `point_and_error_scale` (Eq. 2; `ray::error_scale`).
     let root = sqrt_exact(r.x);
     let a = vertices[tri.x].xyz;
     let b = vertices[tri.y].xyz;
     let c = vertices[tri.z].xyz;
-    let position = (mx3(a, 1.0 - root) + mx3(b, root * (1.0 - r.y))) + mx3(c, root * r.y);
+    let w = vec3<f32>(1.0 - root, root * (1.0 - r.y), root * r.y);
+    let position = (mx3(a, w.x) + mx3(b, w.y)) + mx3(c, w.z);
+    let e = (abs(mx3(a, w.x)) + abs(mx3(b, w.y))) + abs(mx3(c, w.z));
+    let error_scale = max(max(e.x, e.y), e.z);
     // Rng::new(seed ^ 0xd1f5eed, mix64(first_id + i) ^ frame_index).next_2d()
     let stream = mix64(add64(info.yz, vec2<u32>(i, 0u))) ^ vec2<u32>(build.misc.y, 0u);
     var rng = pcg_new(build.rng.xy, stream);
     let shift = pcg_next_2d(&rng);
-    return Sample(position, normals[k].xyz, shift, cell_of(position), k, i);
+    return Sample(position, error_scale, normals[k].xyz, shift, cell_of(position), k, i);
 }
 
 // The samples of this frame, for comparison with the CPU's (two vec4<u32> each).
@@ -239,7 +244,7 @@ fn field(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     for (var side = 0u; side < sides; side++) {
         let n = select(p.normal, -p.normal, side == 1u);
         let rs = ray_set(n, build.rays.x, p.shift, build.rays.z == 1u);
-        let origin = offset_origin(p.position, n);
+        let origin = offset_origin(p.position, n, p.error_scale);
         for (var k = 0u; k < build.rays.x; k++) {
             let d = ray_direction(rs, k);
             if !(dot_cpu(n, d) > 0.0) {

@@ -281,10 +281,10 @@ fn octahedral_pixel(d: vec3<f32>, r: u32) -> u32 {
     return py * r + px;
 }
 
-// `ray::offset_origin(p, n)`.
-fn offset_origin(p: vec3<f32>, n: vec3<f32>) -> vec3<f32> {
+// `ray::offset_origin(p, n, error_scale)`.
+fn offset_origin(p: vec3<f32>, n: vec3<f32>, error_scale: f32) -> vec3<f32> {
     let a = abs(p);
-    let scale = max(max(max(a.x, a.y), a.z), 1.0);
+    let scale = max(max(max(a.x, a.y), a.z), error_scale);
     return p + mx3(n, OFFSET * scale);
 }
 

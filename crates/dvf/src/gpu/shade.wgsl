@@ -114,7 +114,9 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         return;
     }
     let position = g0.xyz;
-    let normal = gbuffer[5u * i + 1u].xyz;
+    let g1 = gbuffer[5u * i + 1u];
+    let normal = g1.xyz;
+    let error_scale = g1.w;
     let shading = gbuffer[5u * i + 2u].xyz;
     let albedo = gbuffer[5u * i + 3u].xyz;
     let emission = gbuffer[5u * i + 4u].xyz;
@@ -130,7 +132,7 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let unknown = shade.flags.y == 1u;
     let rays_unshadowed = shade.flags.x == 1u;
     let inv = div_exact(1.0, f32(shade.size.y));
-    let origin = offset_origin(position, normal);
+    let origin = offset_origin(position, normal, error_scale);
     var sum = vec3<f32>(0.0);
     var unshadowed = vec3<f32>(0.0);
     for (var k = 0u; k < shade.size.y; k++) {

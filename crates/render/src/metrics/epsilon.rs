@@ -42,7 +42,7 @@ pub fn epsilon(
         test.par_chunks_mut(words).enumerate().for_each(|(i, row)| {
             let Some(s) = Shading::from_gbuffer(gbuffer, i) else { return };
             for (l, light) in ls.iter().enumerate() {
-                let ps = direct::punctual(light, s.position, s.normal);
+                let ps = direct::punctual(light, s.position, s.normal, s.error_scale);
                 if !occluded(l, &ps, &s) {
                     row[l / 64] |= 1 << (l % 64);
                 }
