@@ -270,7 +270,10 @@ impl Technique for VplTechnique {
         }
         stats.rays = rays;
         stats.memory_bytes = vpls.memory_bytes + tree.memory_bytes() + cuts.as_ref().map_or(0, |c| c.memory_bytes());
-        // The thesis' lengths as this scene reads them (LightcutsParams::length_unit).
+        // The VPL count is the thesis' `vpl_count` on every scene (not chosen from it): said
+        // beside the choices that are (issue #13: parameters that cannot be chosen well are
+        // reported). Then the thesis' lengths as this scene reads them (LightcutsParams::length_unit).
+        stats.metrics.push(("vpls".to_owned(), vpls.vpls.len() as f64));
         stats.metrics.push(("pvpl_radius".to_owned(), vp.pvpl_radius as f64));
         if self.variant != Variant::Exact {
             stats.metrics.push(("sigma_max".to_owned(), p.flatness(diag).sigma_max as f64));

@@ -134,6 +134,13 @@ pub struct WavecacheParams {
     /// pixel sample (`trace_sharp`, ours; off in `profile=paper`; see
     /// [`technique::lobe_finer_than_map`]).
     pub trace_sharp: bool,
+    /// How many radiance-map texels a glossy lobe must span to be read from the map
+    /// (`sharp_texels`, ours; [`technique::lobe_finer_than_map`]). 1 by default. 2 is the
+    /// Nyquist rule (a map resolves only what spans two of its samples): it takes a small bright
+    /// source's highlight from 2.1× `pt` to within noise on `textured-glossy`, but it also traces
+    /// the tuned scenes' gold (r 0.25) and copper (r 0.3), so `glossy`'s shading goes from 71 to
+    /// 911 ms at 128 spp and the ≥ 20× speed-up over `pt` is lost (docs/techniques/wavecache.md).
+    pub sharp_texels: f32,
     /// Clear-coat ray chain depth (paper 3; spec §5: "The maximum tracing depth is set to 3").
     pub coat_depth: u32,
     /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
@@ -181,6 +188,7 @@ impl Default for WavecacheParams {
             mirror_roughness: 0.1,
             mirror_depth: 4,
             trace_sharp: true,
+            sharp_texels: 1.0,
             coat_depth: 3,
             diffuse_roughness: 0.8,
             brdf: BrdfModel::Pbr,
@@ -204,6 +212,7 @@ impl WavecacheParams {
             path_budget: 0,
             ray_budget: 0,
             trace_sharp: false,
+            sharp_texels: 1.0,
             ..Self::default()
         }
     }
@@ -257,6 +266,7 @@ impl WavecacheParams {
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,
             trace_sharp: params.bool("trace_sharp", base.trace_sharp)?,
+            sharp_texels: params.f32("sharp_texels", base.sharp_texels, 0.0, 1024.0)?,
             coat_depth: params.u32("coat_depth", base.coat_depth, 1, 64)?,
             diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
             brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {

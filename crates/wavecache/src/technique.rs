@@ -199,8 +199,8 @@ pub struct Runtime<'a> {
 /// The paper's Table 2 starts its 128² maps at roughness 0.1; at `map_scale` 1 the rule keeps
 /// roughness above 0.111 on the cache. Materials below the mirror threshold with a non-zero roughness
 /// are traced the same way (their GGX lobe, as `pt` has it, instead of Eq. 18's perfect mirror).
-pub fn lobe_finer_than_map(roughness: f32, map_res: u32) -> bool {
-    2.0 * roughness * roughness < std::f32::consts::PI / map_res as f32
+pub fn lobe_finer_than_map(roughness: f32, map_res: u32, texels: f32) -> bool {
+    2.0 * roughness * roughness < texels * std::f32::consts::PI / map_res as f32
 }
 
 /// Per-texel albedo on a shared glossy lobe: the BRDF trees are tabulated once per material with
@@ -268,8 +268,8 @@ impl<'a> Runtime<'a> {
             .iter()
             .zip(&classes)
             .map(|(m, c)| {
-                let sharp_glossy =
-                    *c == Class::Glossy && params.map_resolution(m.roughness).is_some_and(|n| lobe_finer_than_map(m.roughness, n));
+                let sharp_glossy = *c == Class::Glossy
+                    && params.map_resolution(m.roughness).is_some_and(|n| lobe_finer_than_map(m.roughness, n, params.sharp_texels));
                 // Below the mirror threshold but not smooth: `pt`'s GGX lobe, not Eq. 18's mirror.
                 let rough_mirror = *c == Class::Mirror && m.roughness > 0.0;
                 params.trace_sharp && (sharp_glossy || rough_mirror)

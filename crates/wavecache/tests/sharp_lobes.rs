@@ -13,9 +13,13 @@ use glimpse_wavecache::{Wavecache, WavecacheParams};
 #[test]
 fn the_rule_follows_the_map_resolution() {
     // 32² maps (Table 2 ÷ map_scale 4): the 0.12 sphere is traced, the glossy scene's 0.25 is not.
-    assert!(lobe_finer_than_map(0.12, 32) && !lobe_finer_than_map(0.25, 32));
+    assert!(lobe_finer_than_map(0.12, 32, 1.0) && !lobe_finer_than_map(0.25, 32, 1.0));
     // The paper's 128² maps: traced just above its 0.1 mirror threshold only.
-    assert!(lobe_finer_than_map(0.11, 128) && !lobe_finer_than_map(0.12, 128));
+    assert!(lobe_finer_than_map(0.11, 128, 1.0) && !lobe_finer_than_map(0.12, 128, 1.0));
+    // `sharp_texels=2` (Nyquist): Spot's 0.3 on 32² maps is traced too, 0.35 is not.
+    assert!(lobe_finer_than_map(0.3, 32, 2.0) && !lobe_finer_than_map(0.35, 32, 2.0));
+    let p = WavecacheParams::read(&Params::parse(&["sharp_texels=2".to_owned()]).unwrap()).unwrap();
+    assert_eq!((WavecacheParams::default().sharp_texels, p.sharp_texels), (1.0, 2.0));
 }
 
 fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> Image {
