@@ -62,7 +62,7 @@ fn each_technique_structure_over_the_budget_is_refused() {
         ("many-lights", "lights-shadowmap", &[], "100M", "1024 cube shadow maps of 6 × 128² depths", "384.0 MiB"),
         ("many-lights", "lights-ism", &[], "50M", "1024 imperfect shadow maps of 128² depths", "66.0 MiB"),
         ("cornell", "ao-roma", &[], "4M", "ROMA: 4² occupancy maps of 128³ bits", "4.5 MiB"),
-        ("cornell", "gi-roma", &["rsm=4096"], "100M", "gi-roma: 1 reflective shadow map of 4096² texels", "896.0 MiB"),
+        ("cornell", "gi-roma", &["rsm=4096"], "100M", "gi-roma: 1 reflective shadow map of 4096² texels", "960.0 MiB"),
         ("cornell", "vpl-lightcuts", &["rsm_resolution=4096"], "500M", "vpl-lightcuts: a 4096² reflective shadow map", "GiB"),
         ("cornell", "ao-df", &[], "8M", "the 128³ distance field", "14.2 MiB"),
         ("sky", "env-dvf", &["grid=2048"], "1G", "env-dvf:", "GiB"),

@@ -101,14 +101,14 @@ pub fn vpl_term(s: &Shading, y: Vec3, ny: Vec3, color: Vec3, clamp2: f32) -> Vec
 }
 
 /// `vpl_term` times exact visibility (one shadow ray when the term is non-zero); (value, rays).
-pub fn shade_point(vis: &dyn Visibility, s: &Shading, y: Vec3, ny: Vec3, color: Vec3, clamp2: f32) -> (Vec3, u64) {
+/// The ray ends off the emitter's surface by the offset of `y_error_scale` (the node's,
+/// [`SstNode::error_scale`]).
+pub fn shade_point(vis: &dyn Visibility, s: &Shading, y: Vec3, ny: Vec3, y_error_scale: f32, color: Vec3, clamp2: f32) -> (Vec3, u64) {
     let t = vpl_term(s, y, ny, color, clamp2);
     if t == Vec3::ZERO {
         return (Vec3::ZERO, 0);
     }
-    // y comes from a node's distribution, not from a triangle's vertices, so it has no error
-    // scale of its own: the receiver's stands in (the scene's magnitude; never an absolute length).
-    let (ray, t_max) = segment(s.position, s.normal, s.error_scale, offset_origin(y, ny, s.error_scale));
+    let (ray, t_max) = segment(s.position, s.normal, s.error_scale, offset_origin(y, ny, y_error_scale));
     if vis.occluded(&ray, t_max) { (Vec3::ZERO, 1) } else { (t, 1) }
 }
 
@@ -143,7 +143,7 @@ impl Sampler<'_> {
         };
         let c = &self.tree.nodes[node as usize];
         let y = sample_point(c, rng);
-        let (v, rays) = shade_point(self.vis, s, y, c.normal, c.color, self.clamp2);
+        let (v, rays) = shade_point(self.vis, s, y, c.normal, c.error_scale, c.color, self.clamp2);
         cost.rays += rays;
         if p > 0.0 { v / p } else { Vec3::ZERO }
     }
@@ -190,7 +190,7 @@ impl Sampler<'_> {
 pub fn brute_force(tree: &Sst, vis: &dyn Visibility, s: &Shading, clamp2: f32) -> (Vec3, u64) {
     let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
     for leaf in &tree.nodes[tree.leaves as usize..] {
-        let (v, r) = shade_point(vis, s, leaf.pos, leaf.normal, leaf.color, clamp2);
+        let (v, r) = shade_point(vis, s, leaf.pos, leaf.normal, leaf.error_scale, leaf.color, clamp2);
         sum += v;
         rays += r;
     }

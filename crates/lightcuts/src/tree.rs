@@ -24,6 +24,9 @@ pub struct Vpl {
     pub pos: Vec3,
     pub normal: Vec3,
     pub color: Vec3,
+    /// The error scale of `pos` on its surface (`SurfacePoint::error_scale`): shadow rays end
+    /// 10⁻⁴ of it off the surface.
+    pub error_scale: f32,
 }
 
 /// A node of the SST: the cluster's box, summed colour and its plane-aligned Gaussian.
@@ -43,6 +46,9 @@ pub struct SstNode {
     pub v: f32,
     /// Eq. 5.6 precomputed: `v ≥ v_min ∧ σ_z ≤ σ_max`; always true for leaves.
     pub suitable: bool,
+    /// The largest error scale of the cluster's VPLs: the end offset of a shadow ray to a point
+    /// sampled from the node (ours; a point drawn from the Gaussian has no triangle of its own).
+    pub error_scale: f32,
 }
 
 impl SstNode {
@@ -56,6 +62,7 @@ impl SstNode {
             var: Vec3::ZERO,
             v: 1.0,
             suitable: true,
+            error_scale: vpl.error_scale,
         }
     }
 
@@ -118,6 +125,7 @@ pub fn merge(a: &SstNode, b: &SstNode, flat: Flatness) -> SstNode {
         var,
         v,
         suitable: v >= flat.v_min && var.z <= flat.sigma_max,
+        error_scale: a.error_scale.max(b.error_scale),
     }
 }
 
@@ -290,7 +298,8 @@ mod tests {
 
     #[test]
     fn leaf_ranges_cover_the_leaves() {
-        let vpls: Vec<Vpl> = (0..16).map(|i| Vpl { pos: Vec3::splat(i as f32), normal: Vec3::Y, color: Vec3::ONE }).collect();
+        let vpls: Vec<Vpl> =
+            (0..16).map(|i| Vpl { pos: Vec3::splat(i as f32), normal: Vec3::Y, color: Vec3::ONE, error_scale: 0.0 }).collect();
         let t = Sst::build_sequential(&vpls, Flatness::default());
         assert_eq!(t.leaf_range(1), (0, 16));
         assert_eq!(t.leaf_range(3), (8, 8));

@@ -351,12 +351,12 @@ pub fn generate(frame: &SceneFrame, tracer: &ExactTracer, gbuffer: &GBuffer, par
                 let t = (y * r + x) as usize;
                 let p = pdf[t];
                 let color = if p > 0.0 { rsm.flux[t] / (n_l as f32 * p) } else { Vec3::ZERO };
-                Vpl { pos: rsm.position[t], normal: rsm.normal[t], color }
+                Vpl { pos: rsm.position[t], normal: rsm.normal[t], color, error_scale: rsm.error_scale[t] }
             })
             .collect();
         set.vpls.extend(vpls);
     }
     // A scene whose lights all got no VPLs still gives a (black) perfect tree.
-    set.vpls.resize(params.count as usize, Vpl { pos: frame.bounds.center(), normal: Vec3::Y, color: Vec3::ZERO });
+    set.vpls.resize(params.count as usize, Vpl { pos: frame.bounds.center(), normal: Vec3::Y, color: Vec3::ZERO, error_scale: 0.0 });
     set
 }

@@ -27,7 +27,7 @@ fn random_vpls(n: usize, seed: u64, normal: impl Fn(&mut Rng) -> Vec3) -> Vec<Vp
         .map(|_| {
             let pos = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) * 4.0 - 2.0;
             let color = Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32()) + 0.01;
-            Vpl { pos, normal: normal(&mut rng), color }
+            Vpl { pos, normal: normal(&mut rng), color, error_scale: 1.0 }
         })
         .collect()
 }
@@ -62,7 +62,7 @@ fn floor_setup(n_vpls: usize) -> (Sst, Vec<Shading>, u32, u32) {
         .map(|_| {
             let pos = Vec3::new(rng.next_f32() * 2.0 - 1.0, 0.2 + rng.next_f32() * 0.8, rng.next_f32() * 2.0 - 1.0);
             let n = (Vec3::new(0.0, -1.0, 0.0) + random_normal(&mut rng) * 0.6).normalize();
-            Vpl { pos, normal: n, color: Vec3::new(0.5 + rng.next_f32(), 0.5, 0.2 + rng.next_f32()) * 0.01 }
+            Vpl { pos, normal: n, color: Vec3::new(0.5 + rng.next_f32(), 0.5, 0.2 + rng.next_f32()) * 0.01, error_scale: 1.0 }
         })
         .collect();
     let tree = Sst::build_sequential(&sort_vpls(&vpls), Flatness::default());
@@ -140,8 +140,9 @@ fn check_02_variance_exact_in_a_shared_frame() {
 #[test]
 fn check_03_flat_and_opposite_sets() {
     let mut rng = Rng::new(3, 0);
-    let flat: Vec<Vpl> =
-        (0..256).map(|_| Vpl { pos: Vec3::new(rng.next_f32(), 0.5, rng.next_f32()), normal: Vec3::Y, color: Vec3::ONE }).collect();
+    let flat: Vec<Vpl> = (0..256)
+        .map(|_| Vpl { pos: Vec3::new(rng.next_f32(), 0.5, rng.next_f32()), normal: Vec3::Y, color: Vec3::ONE, error_scale: 1.0 })
+        .collect();
     let tree = Sst::build_sequential(&sort_vpls(&flat), Flatness::default());
     let max_sz = tree.nodes[1..].iter().map(|n| n.var.z).fold(0.0f32, f32::max);
     let min_v = tree.nodes[1..].iter().map(|n| n.v).fold(1.0f32, f32::min);
@@ -150,9 +151,15 @@ fn check_03_flat_and_opposite_sets() {
     let steps = traverse(&tree, 1, &x, true, 1e-4, &mut rng).steps;
     println!("coplanar: max σ_z {max_sz:e}, min v {min_v}, all suitable {all_suitable}, steps from the root {steps}");
     assert!(max_sz < 1e-10 && min_v == 1.0 && all_suitable && steps == 0);
-    let pair = [Vpl { pos: Vec3::ZERO, normal: Vec3::Y, color: Vec3::ONE }, Vpl { pos: Vec3::X, normal: -Vec3::Y, color: Vec3::ONE }];
+    let pair = [
+        Vpl { pos: Vec3::ZERO, normal: Vec3::Y, color: Vec3::ONE, error_scale: 1.0 },
+        Vpl { pos: Vec3::X, normal: -Vec3::Y, color: Vec3::ONE, error_scale: 1.0 },
+    ];
     let mut four = pair.to_vec();
-    four.extend([Vpl { pos: Vec3::Z, normal: Vec3::Y, color: Vec3::ONE }, Vpl { pos: Vec3::ONE, normal: Vec3::Y, color: Vec3::ONE }]);
+    four.extend([
+        Vpl { pos: Vec3::Z, normal: Vec3::Y, color: Vec3::ONE, error_scale: 1.0 },
+        Vpl { pos: Vec3::ONE, normal: Vec3::Y, color: Vec3::ONE, error_scale: 1.0 },
+    ]);
     let t = Sst::build_sequential(&four, Flatness::default());
     println!("opposite normals: v(parent) = {}, v(root) = {}", t.nodes[2].v, t.nodes[1].v);
     assert!(t.nodes[2].v == 0.0 && t.nodes[1].v == 0.0 && !t.nodes[1].suitable);
@@ -624,7 +631,7 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
 #[test]
 fn check_15_cluster_sampling() {
     let mut rng = Rng::new(21, 0);
-    let leaf = SstNode::leaf(&Vpl { pos: Vec3::new(1.0, 2.0, 3.0), normal: Vec3::Y, color: Vec3::ONE });
+    let leaf = SstNode::leaf(&Vpl { pos: Vec3::new(1.0, 2.0, 3.0), normal: Vec3::Y, color: Vec3::ONE, error_scale: 1.0 });
     assert_eq!(sample_point(&leaf, &mut rng), leaf.pos);
     let node = SstNode {
         bb_min: Vec3::splat(-100.0),
@@ -635,6 +642,7 @@ fn check_15_cluster_sampling() {
         var: Vec3::new(0.04, 0.09, 0.0025),
         v: 1.0,
         suitable: true,
+        error_scale: 100.0,
     };
     let f = node.frame();
     let m = 200_000;

@@ -148,8 +148,9 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
     out
 }
 
-/// Bytes per RSM texel: position, normal, albedo, flux (12 B each), area and depth (4 B each).
-pub const BYTES_PER_TEXEL: u64 = 4 * 12 + 2 * 4;
+/// Bytes per RSM texel: position, normal, albedo, flux (12 B each), error scale, area and depth
+/// (4 B each).
+pub const BYTES_PER_TEXEL: u64 = 4 * 12 + 3 * 4;
 
 /// How many RSMs [`rsm_lights`] makes for `frame`: one per punctual light and one per instance
 /// with emissive triangles.
@@ -167,6 +168,9 @@ pub struct Rsm {
     pub light: Option<RsmLight>,
     /// World position of the surface the texel sees (zero where it sees nothing).
     pub position: Vec<Vec3>,
+    /// Each position's error scale (`SurfacePoint::error_scale`; 0 where empty): the offset of
+    /// rays that end at a VPL placed there.
+    pub error_scale: Vec<f32>,
     /// Unit normal facing the light (zero where the texel sees nothing).
     pub normal: Vec<Vec3>,
     pub albedo: Vec<Vec3>,
@@ -212,6 +216,7 @@ impl Rsm {
             resolution,
             light: Some(*light),
             position: vec![Vec3::ZERO; n],
+            error_scale: vec![0.0; n],
             normal: vec![Vec3::ZERO; n],
             albedo: vec![Vec3::ZERO; n],
             flux: vec![Vec3::ZERO; n],
@@ -222,6 +227,7 @@ impl Rsm {
             if let Some((sp, rho, flux, area)) = t {
                 rsm.position[i] = sp.position;
                 rsm.normal[i] = sp.normal;
+                rsm.error_scale[i] = sp.error_scale;
                 rsm.albedo[i] = rho;
                 rsm.flux[i] = flux;
                 rsm.area[i] = area;
