@@ -49,7 +49,8 @@ impl SuiteConfig {
 
 /// Pixels no technique should produce: NaN or infinite values, and pixels black (under 10 % of
 /// the reference, after a 3 × 3 box filter of both luminances) where the reference is lit (its
-/// filtered luminance over 5 % of the image's mean).
+/// filtered luminance over 5 % of the image's mean); also glints, lit pixels over twice the
+/// reference (same filter; the bound for the wavelet cache).
 #[derive(Clone, Copy, Debug, Default, Serialize, PartialEq)]
 pub struct PixelFaults {
     pub nan_inf: u64,
@@ -59,6 +60,8 @@ pub struct PixelFaults {
     /// The reference's mean (filtered) luminance over the black-where-lit pixels, as a multiple
     /// of its image mean: near 0.05 they are its dimmest lit pixels, over 1 its bright ones.
     pub black_reference_level: f64,
+    /// Lit pixels whose filtered luminance is over twice the reference's.
+    pub over_twice: u64,
 }
 
 impl PixelFaults {
@@ -82,28 +85,31 @@ impl PixelFaults {
         };
         let (li, lr) = (lum(image), lum(reference));
         let mean = lr.iter().sum::<f32>() / lr.len().max(1) as f32;
-        let (mut black, mut lit, mut level) = (0, 0, 0.0f64);
+        let (mut black, mut lit, mut level, mut over_twice) = (0, 0, 0.0f64, 0);
         for y in 0..h {
             for x in 0..w {
                 let r = box3(&lr, x, y);
                 if r > 0.05 * mean {
                     lit += 1;
-                    if box3(&li, x, y) < 0.1 * r {
+                    let i = box3(&li, x, y);
+                    if i < 0.1 * r {
                         black += 1;
                         level += (r / mean) as f64;
                     }
+                    over_twice += u64::from(i > 2.0 * r);
                 }
             }
         }
-        Self { nan_inf, black_where_lit: black, lit, black_reference_level: if black > 0 { level / black as f64 } else { 0.0 } }
+        Self { nan_inf, black_where_lit: black, lit, black_reference_level: if black > 0 { level / black as f64 } else { 0.0 }, over_twice }
     }
 
-    pub fn to_pairs(self) -> [(&'static str, f64); 4] {
+    pub fn to_pairs(self) -> [(&'static str, f64); 5] {
         [
             ("nan_inf_pixels", self.nan_inf as f64),
             ("black_where_lit_pixels", self.black_where_lit as f64),
             ("lit_pixels", self.lit as f64),
             ("black_reference_level", self.black_reference_level),
+            ("over_twice_pixels", self.over_twice as f64),
         ]
     }
 }
@@ -226,6 +232,7 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         black_where_lit: m("black_where_lit_pixels").unwrap_or(0.0) as u64,
         lit: m("lit_pixels").unwrap_or(0.0) as u64,
         black_reference_level: m("black_reference_level").unwrap_or(0.0),
+        over_twice: m("over_twice_pixels").unwrap_or(0.0) as u64,
     };
     let ms = run.ms["total"];
     let speedup = run.reference_ms.map(|r| r / ms.max(1e-6));
@@ -237,7 +244,10 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
     ];
     let mut not_judged = Vec::new();
     match run.technique.as_str() {
-        "wavecache" => checks.push(Check { what: "MSE ≤ 6e-4".into(), pass: m("mse").is_some_and(|v| v <= 6e-4) }),
+        "wavecache" => {
+            checks.push(Check { what: "MSE ≤ 6e-4".into(), pass: m("mse").is_some_and(|v| v <= 6e-4) });
+            checks.push(Check { what: "no glints over 2× pt".into(), pass: faults.over_twice == 0 });
+        }
         "lights-voxarray" => checks.push(Check { what: "ε_s ≤ 3 %".into(), pass: m("eps_s_pct").is_some_and(|v| v <= 3.0) }),
         // The paper's ground truth traces the same N_r rays per fragment: judged on the same
         // samples, so only the field's decisions (and E_unshad's SH error) count. The target is
@@ -263,6 +273,14 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
     reasons.extend(not_judged);
     if faults.black_where_lit > 0 {
         reasons.push(black_where_lit_reason(&run.technique, faults));
+    }
+    if run.technique == "wavecache" && faults.over_twice > 0 {
+        reasons.push(format!(
+            "{} of {} lit pixels ({:.2} %) are over 2× pt (3 × 3 means): glints of the cached radiance, or the {spp}-spp noise of traced sharp lobes",
+            faults.over_twice,
+            faults.lit,
+            100.0 * faults.over_twice as f64 / faults.lit.max(1) as f64
+        ));
     }
     let dvf_rmse = m("rmse_same_samples").or(m("rmse")).filter(|&v| run.technique == "env-dvf" && v > 0.003);
     if let (Some(rmse), Some(points), Some(grid)) = (dvf_rmse, m("points"), m("grid"))
@@ -754,7 +772,11 @@ mod tests {
         assert_eq!(f.black_where_lit, 4);
         assert_eq!((f.lit, f.black_reference_level), (256, 1.0), "every pixel of a uniform reference is lit, at its mean");
         let same = PixelFaults::count(&reference, &reference);
-        assert_eq!((same.nan_inf, same.black_where_lit, same.lit), (0, 0, 256));
+        assert_eq!((same.nan_inf, same.black_where_lit, same.lit, same.over_twice), (0, 0, 256, 0));
+        // A glint: a 3 × 3 block at 4× the reference. Its 3 × 3 means are 4 at the centre, 3 at
+        // the edges, 2.33 at the corners (over twice: 9 pixels), exactly 2 beside an edge (not over).
+        let glint = Image::from_fn(16, 16, |x, y| Vec3::splat(if (4..7).contains(&x) && (4..7).contains(&y) { 4.0 } else { 1.0 }));
+        assert_eq!(PixelFaults::count(&glint, &reference).over_twice, 9);
         let reason = black_where_lit_reason("ao-roma", f);
         assert!(reason.starts_with("4 of 256 lit pixels (1.56 %)") && reason.contains("1.00× its image mean"), "{reason}");
     }
