@@ -39,7 +39,13 @@ pub const RAY_OFFSET: f32 = 1e-4;
 /// the origin on a triangle that reaches far from it. It scales with the scene: no absolute
 /// length enters the offset.
 pub fn error_scale(p: &[Vec3; 3], b: [f32; 3]) -> f32 {
-    ((p[0] * b[0]).abs() + (p[1] * b[1]).abs() + (p[2] * b[2]).abs()).max_element()
+    error_magnitudes(p, b).max_element()
+}
+
+/// `Σ |bᵢ·pᵢ|` per coordinate: what the rounding error of `Σ bᵢ·pᵢ` is relative to, coordinate by
+/// coordinate (× γ₇ it is pbrt-v4's bound, eq. 6.21).
+pub fn error_magnitudes(p: &[Vec3; 3], b: [f32; 3]) -> Vec3 {
+    (p[0] * b[0]).abs() + (p[1] * b[1]).abs() + (p[2] * b[2]).abs()
 }
 
 /// Moves `p` off the surface along `n` by [`RAY_OFFSET`] × the larger of `p`'s largest coordinate

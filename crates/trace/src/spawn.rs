@@ -26,15 +26,14 @@ fn gamma(n: u32) -> f32 {
 /// The point `b₀p₀ + b₁p₁ + b₂p₂` and the bound on its rounding error per coordinate.
 pub fn interpolate(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, Vec3) {
     let point = p[0] * b[0] + p[1] * b[1] + p[2] * b[2];
-    let error = ((p[0] * b[0]).abs() + (p[1] * b[1]).abs() + (p[2] * b[2]).abs()) * gamma(7);
-    (point, error)
+    (point, glimpse_core::ray::error_magnitudes(p, b) * gamma(7))
 }
 
 /// [`inset_point`]'s point and the magnitude its error is relative to
 /// ([`glimpse_core::ray::error_scale`]), which rays leaving it are offset by.
 pub fn surface_point(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, f32) {
-    let (point, error) = inset_point(p, b);
-    (point, error.max_element() / gamma(7))
+    let w = inset_barycentrics(p, b);
+    (interpolate(p, w).0, glimpse_core::ray::error_scale(p, w))
 }
 
 /// How far (in multiples of the point's error bound) the inset keeps a hit from its
@@ -47,11 +46,16 @@ const MAX_INSET: f32 = 0.05;
 /// The hit point for barycentrics `b` (summing to 1), moved inside the triangle so that it is at
 /// least [`INSET_ERRORS`] error bounds from every edge, and its error bound.
 pub fn inset_point(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, Vec3) {
+    interpolate(p, inset_barycentrics(p, b))
+}
+
+/// [`inset_point`]'s barycentrics.
+fn inset_barycentrics(p: &[Vec3; 3], b: [f32; 3]) -> [f32; 3] {
     let (_, error) = interpolate(p, b);
     let twice_area = (p[1] - p[0]).cross(p[2] - p[0]).length();
     let reach = INSET_ERRORS * error.length();
     if twice_area.is_nan() || twice_area <= 0.0 || reach == 0.0 {
-        return interpolate(p, b);
+        return b;
     }
     // The distance from the edge opposite vertex i to vertex i is 2A/|edge|; a barycentric bᵢ
     // is the point's distance from that edge over that height.
@@ -62,7 +66,7 @@ pub fn inset_point(p: &[Vec3; 3], b: [f32; 3]) -> (Vec3, Vec3) {
         *bi = bi.max(min);
     }
     let sum = inset[0] + inset[1] + inset[2];
-    interpolate(p, inset.map(|x| x / sum))
+    inset.map(|x| x / sum)
 }
 
 #[cfg(test)]
