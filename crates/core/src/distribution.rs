@@ -11,6 +11,11 @@ pub struct Distribution1D {
     pub cdf: Vec<f32>,
     /// Integral of `func` over [0,1).
     pub integral: f32,
+    /// `guide[k]` = the bin of u = k/n (Chen and Asau's cutpoint method): a search starts there
+    /// and walks forward, on average one bin, instead of bisecting the whole CDF. Environment
+    /// maps sample a marginal and a conditional per light sample, and the bisection's chain of
+    /// dependent loads was 13 % of a wavelet-cache precompute on `mixed-lights`.
+    guide: Vec<u32>,
 }
 
 impl Distribution1D {
@@ -28,8 +33,17 @@ impl Distribution1D {
             func.iter_mut().for_each(|f| *f = 1.0);
             return Self::new(&func);
         }
-        let cdf = cdf.iter().map(|c| (c / integral) as f32).collect();
-        Self { func, cdf, integral: integral as f32 }
+        let cdf: Vec<f32> = cdf.iter().map(|c| (c / integral) as f32).collect();
+        let mut guide = Vec::with_capacity(n);
+        let mut bin = 0;
+        for k in 0..n {
+            let u = k as f32 / n as f32;
+            while bin + 1 < n && cdf[bin + 1] <= u {
+                bin += 1;
+            }
+            guide.push(bin as u32);
+        }
+        Self { func, cdf, integral: integral as f32, guide }
     }
 
     pub fn len(&self) -> usize {
@@ -59,10 +73,22 @@ impl Distribution1D {
         self.func[bin] / (self.integral * self.len() as f32)
     }
 
+    /// The last bin whose cdf start is <= u (0 for u < 0 or NaN): the bisection's answer, found
+    /// from the guide table (the unit test checks the two agree).
     fn find_bin(&self, u: f32) -> usize {
-        // The last bin whose cdf start is <= u.
-        let i = self.cdf.partition_point(|&c| c <= u);
-        i.saturating_sub(1).min(self.len() - 1)
+        let n = self.len();
+        if u.is_nan() {
+            return 0;
+        }
+        let mut bin = self.guide[((u * n as f32) as usize).min(n - 1)] as usize;
+        // u·n can round up past u's own interval: step back first.
+        while bin > 0 && self.cdf[bin] > u {
+            bin -= 1;
+        }
+        while bin + 1 < n && self.cdf[bin + 1] <= u {
+            bin += 1;
+        }
+        bin
     }
 }
 
@@ -115,6 +141,32 @@ mod tests {
         assert!((counts[0] as f32 / 10_000.0 - 1.0).abs() < 0.05);
         assert!((counts[3] as f32 / 40_000.0 - 1.0).abs() < 0.03);
         assert!((d.discrete_pdf(2) - 3.0 / 8.0).abs() < 1e-6);
+    }
+
+    /// The guide table finds the bin bisection finds, for every u: random ones, the CDF's own
+    /// values and their neighbours, on shapes with zero bins, a spike and uniform weights.
+    #[test]
+    fn guided_search_equals_bisection() {
+        let mut rng = Rng::new(11, 0);
+        let shapes: Vec<Vec<f32>> = vec![
+            vec![1.0; 7],
+            vec![0.0, 0.0, 5.0, 0.0, 0.0, 0.0, 1.0, 0.0],
+            (0..1000).map(|i| if i == 617 { 1e6 } else { 1e-3 }).collect(),
+            (0..513).map(|_| if rng.next_f32() < 0.3 { 0.0 } else { rng.next_f32().powi(8) }).collect(),
+            vec![3.0],
+        ];
+        for func in shapes {
+            let d = Distribution1D::new(&func);
+            let bisect = |u: f32| d.cdf.partition_point(|&c| c <= u).saturating_sub(1).min(d.len() - 1);
+            let mut us: Vec<f32> = (0..20_000).map(|_| rng.next_f32()).collect();
+            for &c in &d.cdf {
+                us.extend([c, f32::from_bits(c.to_bits().saturating_sub(1)), f32::from_bits(c.to_bits() + 1)]);
+            }
+            us.extend([0.0, -0.5, 1.0 - f32::EPSILON, 1.0, f32::NAN]);
+            for u in us {
+                assert_eq!(d.find_bin(u), bisect(u), "u = {u} over {} bins", d.len());
+            }
+        }
     }
 
     #[test]
