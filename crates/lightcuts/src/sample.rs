@@ -37,10 +37,10 @@ pub struct Traversal {
 
 /// Stochastic traversal (§5.2) from `start`: stop at a leaf, or at a `suitable` node when
 /// `stop_inner`; otherwise go left with p = w_l/(w_l+w_r) (Eq. 5.4). Both weights 0: no sample.
-pub fn traverse(tree: &Sst, start: u32, x: &Surface, stop_inner: bool, clamp2: f32, rng: &mut Rng) -> Traversal {
+pub fn traverse(tree: &Sst, start: u32, x: &Surface, stop: Option<f32>, clamp2: f32, rng: &mut Rng) -> Traversal {
     let (mut node, mut p, mut steps) = (start, 1.0f32, 0u32);
     loop {
-        if tree.is_leaf(node) || (stop_inner && tree.nodes[node as usize].suitable) {
+        if tree.is_leaf(node) || stop.is_some_and(|r| stops_at(&tree.nodes[node as usize], x, r)) {
             return Traversal { node: Some((node, p)), steps };
         }
         let (l, r) = (2 * node, 2 * node + 1);
@@ -59,6 +59,20 @@ pub fn traverse(tree: &Sst, start: u32, x: &Surface, stop_inner: bool, clamp2: f
             p *= 1.0 - pl;
         }
     }
+}
+
+/// Whether a traversal stops at inner node `c`: Eq. 5.6's `suitable`, and (ours) the node's box
+/// seen from `x` small: its diagonal at most `ratio` × the distance from `x` to its centre.
+pub fn stops_at(c: &SstNode, x: &Surface, ratio: f32) -> bool {
+    if !c.suitable {
+        return false;
+    }
+    if ratio == f32::INFINITY {
+        return true;
+    }
+    let diag2 = (c.bb_max - c.bb_min).length_squared();
+    let d2 = ((c.bb_min + c.bb_max) * 0.5 - x.pos).length_squared();
+    diag2 <= ratio * ratio * d2
 }
 
 /// A standard normal pair (Box–Muller).
@@ -121,6 +135,9 @@ pub struct Sampler<'a> {
     pub n: u32,
     pub clamp2: f32,
     pub similarity: Similarity,
+    /// Inner nodes stop a traversal only when their box's diagonal is at most this × their
+    /// distance (ours; ∞: Eq. 5.6 alone, the thesis).
+    pub stop_ratio: f32,
 }
 
 /// What one pixel's estimate cost.
@@ -134,8 +151,8 @@ pub struct PixelCost {
 
 impl Sampler<'_> {
     /// One traversal + evaluation from `start`, divided by the path probability.
-    fn evaluate(&self, start: u32, s: &Shading, x: &Surface, stop_inner: bool, rng: &mut Rng, cost: &mut PixelCost) -> Vec3 {
-        let t = traverse(self.tree, start, x, stop_inner, self.clamp2, rng);
+    fn evaluate(&self, start: u32, s: &Shading, x: &Surface, stop: Option<f32>, rng: &mut Rng, cost: &mut PixelCost) -> Vec3 {
+        let t = traverse(self.tree, start, x, stop, self.clamp2, rng);
         cost.steps += t.steps as u64;
         cost.samples += 1;
         let Some((node, p)) = t.node else {
@@ -156,12 +173,12 @@ impl Sampler<'_> {
         match self.strategy {
             Strategy::Sst => {
                 for _ in 0..self.n {
-                    sum += self.evaluate(1, s, &x, true, rng, &mut cost);
+                    sum += self.evaluate(1, s, &x, Some(self.stop_ratio), rng, &mut cost);
                 }
                 sum /= self.n.max(1) as f32;
             }
             Strategy::Proposed | Strategy::Rtslc => {
-                let stop_inner = self.strategy == Strategy::Proposed;
+                let stop_inner = (self.strategy == Strategy::Proposed).then_some(self.stop_ratio);
                 let cuts = self.cuts.expect("cut strategies have cuts");
                 match cuts.blend_weights(px, py, &x, self.similarity) {
                     Some(p) => {
@@ -195,4 +212,34 @@ pub fn brute_force(tree: &Sst, vis: &dyn Visibility, s: &Shading, clamp2: f32) -
         rays += r;
     }
     (sum, rays)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn flat_node(suitable: bool) -> SstNode {
+        SstNode {
+            bb_min: Vec3::new(-0.5, 0.0, -0.5),
+            bb_max: Vec3::new(0.5, 0.0, 0.5),
+            color: Vec3::ONE,
+            pos: Vec3::ZERO,
+            normal: Vec3::Y,
+            var: Vec3::new(0.1, 0.1, 0.0),
+            v: 1.0,
+            suitable,
+            error_scale: 1.0,
+        }
+    }
+
+    #[test]
+    fn a_flat_cluster_stops_only_where_it_looks_small() {
+        // Box diagonal √2 ≈ 1.41: a stop at ratio 0.1 needs a distance of at least 14.1.
+        let at = |d: f32| Surface { pos: Vec3::new(0.0, d, 0.0), normal: -Vec3::Y };
+        let node = flat_node(true);
+        assert!(stops_at(&node, &at(0.2), f32::INFINITY), "the thesis' rule: every suitable node");
+        assert!(!stops_at(&node, &at(14.0), 0.1));
+        assert!(stops_at(&node, &at(14.2), 0.1));
+        assert!(!stops_at(&flat_node(false), &at(1e6), 0.1), "an unsuitable node never stops");
+    }
 }

@@ -65,12 +65,12 @@ impl VplTechnique {
             Variant::Lightcuts => (
                 "vpl-lightcuts",
                 Some("vpl-exact"),
-                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
+                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 stop_ratio=0.1 (ours: a flat cluster stops only where its box is under 0.1 × its distance; profile=paper: inf) and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
             ),
             Variant::Sst => (
                 "vpl-sst",
                 Some("vpl-exact"),
-                "Stochastic Substitute Tree baseline (Tatzgern et al. 2020, as in Tavasszy 2021 §7.1): spp traversals from the root stopping at flat clusters",
+                "Stochastic Substitute Tree baseline (Tatzgern et al. 2020, as in Tavasszy 2021 §7.1): spp traversals from the root stopping at flat clusters (the same stop rule as vpl-lightcuts, stop_ratio included)",
             ),
             Variant::Rtslc => (
                 "vpl-rtslc",
@@ -208,7 +208,16 @@ impl Technique for VplTechnique {
                         (v, PixelCost { rays, ..Default::default() })
                     }
                     Some(strategy) => {
-                        let sampler = Sampler { tree: &tree, vis: &ctx.tracer, cuts: cuts.as_ref(), strategy, n, clamp2, similarity: sim };
+                        let sampler = Sampler {
+                            tree: &tree,
+                            vis: &ctx.tracer,
+                            cuts: cuts.as_ref(),
+                            strategy,
+                            n,
+                            clamp2,
+                            similarity: sim,
+                            stop_ratio: p.stop_ratio,
+                        };
                         sampler.pixel(gx, gy, &s, &mut rng)
                     }
                 };
@@ -277,6 +286,7 @@ impl Technique for VplTechnique {
         stats.metrics.push(("pvpl_radius".to_owned(), vp.pvpl_radius as f64));
         if self.variant != Variant::Exact {
             stats.metrics.push(("sigma_max".to_owned(), p.flatness(diag).sigma_max as f64));
+            stats.metrics.push(("stop_ratio".to_owned(), p.stop_ratio as f64));
         }
         self.report = Some(FrameReport {
             vpls,

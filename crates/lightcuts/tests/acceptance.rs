@@ -148,7 +148,7 @@ fn check_03_flat_and_opposite_sets() {
     let min_v = tree.nodes[1..].iter().map(|n| n.v).fold(1.0f32, f32::min);
     let all_suitable = tree.nodes[1..].iter().all(|n| n.suitable);
     let x = Surface { pos: Vec3::ZERO, normal: Vec3::Y };
-    let steps = traverse(&tree, 1, &x, true, 1e-4, &mut rng).steps;
+    let steps = traverse(&tree, 1, &x, Some(f32::INFINITY), 1e-4, &mut rng).steps;
     println!("coplanar: max σ_z {max_sz:e}, min v {min_v}, all suitable {all_suitable}, steps from the root {steps}");
     assert!(max_sz < 1e-10 && min_v == 1.0 && all_suitable && steps == 0);
     let pair = [
@@ -514,7 +514,7 @@ fn check_13_traversal_distribution() {
     let mut freq: HashMap<u32, f64> = HashMap::new();
     let mut p_err = 0.0f64;
     for _ in 0..trials {
-        if let Some((node, p)) = traverse(&tree, 1, &x, true, 1e-4, &mut rng).node {
+        if let Some((node, p)) = traverse(&tree, 1, &x, Some(f32::INFINITY), 1e-4, &mut rng).node {
             *freq.entry(node).or_default() += 1.0 / trials as f64;
             p_err = p_err.max((p as f64 - expected[&node]).abs());
         }
@@ -524,7 +524,7 @@ fn check_13_traversal_distribution() {
     let mut dark = vpls.clone();
     dark.iter_mut().for_each(|v| v.color = Vec3::ZERO);
     let dark_tree = Sst::build_sequential(&dark, Flatness { v_min: 2.0, sigma_max: 0.0 });
-    let none = traverse(&dark_tree, 1, &x, true, 1e-4, &mut rng).node.is_none();
+    let none = traverse(&dark_tree, 1, &x, Some(f32::INFINITY), 1e-4, &mut rng).node.is_none();
     println!("terminal-node frequency vs Π Eq. 5.4: worst error {worst:.4}; returned P error {p_err:e}; zero weights → None: {none}");
     assert!(worst < 0.005 && p_err < 1e-5 && none);
 }
@@ -573,8 +573,16 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
     let cuts = block_cuts(&tree, &g, w, h, &|x, y| (y * w + x) as usize, 1, n, clamp2);
     let pixels: Vec<(usize, Shading)> = (0..g.len()).filter_map(|i| Shading::from_gbuffer(&g, i).map(|s| (i, s))).collect();
     let truth: Vec<Vec3> = pixels.iter().map(|(_, s)| brute_force(&tree, &ctx.tracer, s, clamp2).0).collect();
-    let sampler =
-        Sampler { tree: &tree, vis: &ctx.tracer, cuts: Some(&cuts), strategy: Strategy::Rtslc, n, clamp2, similarity: vp.similarity };
+    let sampler = Sampler {
+        tree: &tree,
+        vis: &ctx.tracer,
+        cuts: Some(&cuts),
+        strategy: Strategy::Rtslc,
+        n,
+        clamp2,
+        similarity: vp.similarity,
+        stop_ratio: f32::INFINITY,
+    };
     let est = |rounds: u32, seed: u64| -> Vec<Vec3> {
         pixels
             .iter()
@@ -605,8 +613,16 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
     let cuts = synthetic_cuts(&leaf_tree, &floor, fw, fh, 8, 8, 1e-4);
     let sim = Similarity { n_min: 0.9, d_max: 10.0 };
     let truth: Vec<Vec3> = floor.iter().map(|s| brute_force(&leaf_tree, &Unoccluded, s, 1e-4).0).collect();
-    let sampler =
-        Sampler { tree: &leaf_tree, vis: &Unoccluded, cuts: Some(&cuts), strategy: Strategy::Rtslc, n: 8, clamp2: 1e-4, similarity: sim };
+    let sampler = Sampler {
+        tree: &leaf_tree,
+        vis: &Unoccluded,
+        cuts: Some(&cuts),
+        strategy: Strategy::Rtslc,
+        n: 8,
+        clamp2: 1e-4,
+        similarity: sim,
+        stop_ratio: f32::INFINITY,
+    };
     let (b1, b4) =
         (rel_rmse(&mean_estimate(&sampler, &floor, fw, 100, 1), &truth), rel_rmse(&mean_estimate(&sampler, &floor, fw, 400, 1), &truth));
     // (c) Early termination on (the thesis' method): a fixed bias that does not vanish.
@@ -619,13 +635,19 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
         let m = mean_estimate(&proposed, &floor, fw, 400, 2);
         m.iter().map(|v| luminance(*v) as f64).sum::<f64>() / truth.iter().map(|v| luminance(*v) as f64).sum::<f64>() - 1.0
     };
+    // (d) Our stop rule (stop_ratio 0.1): flat clusters near the receiver are traversed on, so
+    // the fixed bias of (c) shrinks.
+    let near = Sampler { stop_ratio: glimpse_lightcuts::DEFAULT_STOP_RATIO, ..proposed };
+    let d4 = rel_rmse(&mean_estimate(&near, &floor, fw, 400, 2), &truth);
     println!("floor, 8×8 blocks + blending, leaves: rel. RMSE {b1:.4} (M = 100) → {b4:.4} (M = 400), ratio {:.2}", b1 / b4);
     println!(
         "floor, early termination (v_min 0.7, σ_max 0.3): rel. RMSE {c1:.4} → {c4:.4} (ratio {:.2}); image-sum bias {:+.4}",
         c1 / c4,
         bias
     );
+    println!("floor, early termination with stop_ratio {}: rel. RMSE {d4:.4} (M = 400)", glimpse_lightcuts::DEFAULT_STOP_RATIO);
     assert!(b4 < 0.03 && b1 / b4 > 1.6);
+    assert!(d4 < c4, "the receiver-relative stop should cut the early termination's error: {d4} vs {c4}");
 }
 
 #[test]
