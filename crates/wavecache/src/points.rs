@@ -262,6 +262,9 @@ pub struct QueryParams {
     pub normal_cutoff: f32,
     /// Candidates examined at most (0: all that can win).
     pub max_candidates: u32,
+    /// Only points within this distance (scene units) rank by the normal cutoff first; farther
+    /// ones compete on the plain score (∞: the whole mesh).
+    pub search_radius: f32,
 }
 
 const PREFERRED: f32 = 1.0e4;
@@ -269,7 +272,14 @@ const PREFERRED: f32 = 1.0e4;
 /// The mixed score of a point (with the bonus that ranks points inside the normal cutoff first).
 pub fn score(q: &QueryParams, x: Vec3, n: Vec3, p: Vec3, np: Vec3) -> f32 {
     let c = n.dot(np);
-    -x.distance(p) / q.r_max + q.normal_weight * c + if c >= q.normal_cutoff { PREFERRED } else { 0.0 }
+    let d = x.distance(p);
+    -d / q.r_max + q.normal_weight * c + if c >= q.normal_cutoff && d <= q.search_radius { PREFERRED } else { 0.0 }
+}
+
+/// The best score any point in `node`'s box can reach.
+fn bound(q: &QueryParams, node: &OctNode, x: Vec3) -> f32 {
+    let d = aabb_distance(node, x);
+    -d / q.r_max + q.normal_weight.abs() + if d <= q.search_radius { PREFERRED } else { 0.0 }
 }
 
 fn aabb_distance(n: &OctNode, x: Vec3) -> f32 {
@@ -283,7 +293,7 @@ pub fn query(nodes: &[OctNode], positions: &[Vec3], normals: &[Vec3], q: &QueryP
     if nodes.is_empty() || positions.is_empty() {
         return None;
     }
-    let bound = |node: &OctNode| -aabb_distance(node, x) / q.r_max + q.normal_weight.abs() + PREFERRED;
+    let bound = |node: &OctNode| bound(q, node, x);
     let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
     let mut examined = 0u32;
     let mut stack: Vec<(f32, u32)> = vec![(bound(&nodes[0]), 0)];
@@ -319,12 +329,11 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
     if nodes.is_empty() || pts.is_empty() {
         return None;
     }
-    let bound = |node: &OctNode| -aabb_distance(node, x) / q.r_max + q.normal_weight.abs() + PREFERRED;
     let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
     let mut examined = 0u32;
     // A fixed stack (no allocation per pixel): depth ≤ MAX_DEPTH levels × ≤ 8 children.
     let mut stack = [(0f32, 0u32); 8 * (MAX_DEPTH as usize + 2)];
-    stack[0] = (bound(&nodes[0]), 0);
+    stack[0] = (bound(q, &nodes[0], x), 0);
     let mut top = 1usize;
     while top > 0 {
         top -= 1;
@@ -348,7 +357,7 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
         } else {
             let start = top;
             for c in node.first_child..node.first_child + node.child_count {
-                let bc = bound(&nodes[c as usize]);
+                let bc = bound(q, &nodes[c as usize], x);
                 if bc > best && top < stack.len() {
                     stack[top] = (bc, c);
                     top += 1;

@@ -279,25 +279,27 @@ impl<'a> Runtime<'a> {
         Self { cache, params, frame, vis, classes, traced, emitters }
     }
 
-    /// The cache point chosen for (x, n) on instance `inst`, on the side of the geometric normal
-    /// `ng`: a point of the other side caches the other hemisphere's light, so none is found
-    /// there (a back face the camera did not see when the cache was made gets no cached light,
-    /// rather than the front's).
-    pub fn lookup(&self, inst: u32, x: Vec3, n: Vec3, ng: Vec3) -> Option<&'a CachePoint> {
-        let mc = self.cache.meshes.get(inst as usize)?;
+    /// The cache point chosen for the shaded point `s` (normal `ns` for the score), on the side
+    /// of its geometric normal: a point of the other side caches the other hemisphere's light,
+    /// so none is found there (a back face the camera did not see when the cache was made gets
+    /// no cached light, rather than the front's).
+    pub fn lookup(&self, s: &ShadePoint, ns: Vec3) -> Option<&'a CachePoint> {
+        let mc = self.cache.meshes.get(s.instance as usize)?;
         if mc.point_count == 0 {
             return None;
         }
         let nodes = &self.cache.octree[mc.first_node as usize..(mc.first_node + mc.node_count) as usize];
         let pts = &self.cache.points[mc.first_point as usize..(mc.first_point + mc.point_count) as usize];
+        let r_max = mc.r_max.max(1e-12);
         let q = QueryParams {
-            r_max: mc.r_max.max(1e-12),
+            r_max,
             normal_weight: self.params.normal_weight,
             normal_cutoff: self.params.normal_cutoff_deg.to_radians().cos(),
             max_candidates: self.params.query_m,
+            search_radius: self.params.search_radius * r_max,
         };
-        let i = points::query_points(nodes, pts, &q, x, n)?;
-        pts.get(i as usize).filter(|p| Vec3::from(p.normal).dot(ng) > 0.0)
+        let i = points::query_points(nodes, pts, &q, s.position, ns)?;
+        pts.get(i as usize).filter(|p| Vec3::from(p.normal).dot(s.normal) > 0.0)
     }
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
@@ -335,7 +337,7 @@ impl<'a> Runtime<'a> {
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
-                let Some(p) = self.lookup(s.instance, s.position, ns, s.normal) else {
+                let Some(p) = self.lookup(s, ns) else {
                     return Vec3::ZERO;
                 };
                 let e = self
@@ -349,7 +351,7 @@ impl<'a> Runtime<'a> {
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let Some(p) = self.lookup(s.instance, s.position, ns, s.normal) else {
+                let Some(p) = self.lookup(s, ns) else {
                     return Vec3::ZERO;
                 };
                 let np = Vec3::from(p.shading_normal);

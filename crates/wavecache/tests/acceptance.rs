@@ -9,7 +9,7 @@ use glimpse_render::pt::PathTracer;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_scene::{Camera, Environment, Light, Material, Mesh, Scene};
 use glimpse_trace::GBuffer;
-use glimpse_wavecache::bake::table2_resolution;
+use glimpse_wavecache::bake::{CachePoint, table2_resolution};
 use glimpse_wavecache::brdf::{self, MaterialBrdf};
 use glimpse_wavecache::haar::{self, HaarNode, TreeRef};
 use glimpse_wavecache::half::{F16_MAX, f16_to_f32, f32_to_f16};
@@ -644,7 +644,13 @@ fn check_14_octree() {
     // m = ∞: the octree query = the brute-force argmax of the mixed score.
     let lp: Vec<Vec3> = order.iter().map(|&i| pos[i as usize]).collect();
     let ln: Vec<Vec3> = order.iter().map(|&i| nor[i as usize]).collect();
-    let q = QueryParams { r_max: 0.05, normal_weight: 1.0, normal_cutoff: 30f32.to_radians().cos(), max_candidates: 0 };
+    let q = QueryParams {
+        r_max: 0.05,
+        normal_weight: 1.0,
+        normal_cutoff: 30f32.to_radians().cos(),
+        max_candidates: 0,
+        search_radius: f32::INFINITY,
+    };
     let mut differ = 0;
     for _ in 0..2000 {
         let x = glimpse_core::sampling::uniform_sphere(rng.next_2d()) * (0.9 + 0.2 * rng.next_f32());
@@ -656,6 +662,31 @@ fn check_14_octree() {
     }
     println!("octree query vs brute-force argmax: {differ} of 2000 differ");
     assert_eq!(differ, 0);
+
+    // The runtime's query with a bounded search radius (the normal cutoff ranks first only
+    // within it) = the brute force's best, and never prefers a point beyond the radius.
+    let pts: Vec<CachePoint> = lp
+        .iter()
+        .zip(&ln)
+        .map(|(p, n)| CachePoint { position: p.to_array(), normal: n.to_array(), shading_normal: n.to_array(), energy: 1.0, payload: 0 })
+        .collect();
+    let (mut differ, mut far_preferred) = (0, 0);
+    for radius in [f32::INFINITY, 0.15, 0.4] {
+        let q = QueryParams { search_radius: radius, ..q };
+        for _ in 0..500 {
+            let x = glimpse_core::sampling::uniform_sphere(rng.next_2d()) * (0.9 + 0.2 * rng.next_f32());
+            // Any normal: most queries find points of their orientation only far across the
+            // sphere, which the unbounded cutoff bonus would prefer.
+            let n = glimpse_core::sampling::uniform_sphere(rng.next_2d());
+            let got = points::query_points(&nodes, &pts, &q, x, n).unwrap();
+            let brute = (0..lp.len()).map(|i| points::score(&q, x, n, lp[i], ln[i])).fold(f32::MIN, f32::max);
+            let s = points::score(&q, x, n, lp[got as usize], ln[got as usize]);
+            differ += (s != brute) as u32;
+            far_preferred += (s > 1e3 && lp[got as usize].distance(x) > radius) as u32;
+        }
+    }
+    println!("runtime query (search radius) vs brute force: {differ} of 1500 differ; preferred beyond the radius: {far_preferred}");
+    assert_eq!((differ, far_preferred), (0, 0));
 }
 
 // ---------------------------------------------------------------------------------------------
