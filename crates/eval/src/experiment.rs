@@ -293,6 +293,9 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             same_samples.push(("rmse_same_samples".to_owned(), m.rmse));
             same_samples.push(("flip_same_samples".to_owned(), m.flip));
             same_samples.push(("reference_rmse_same_spp".to_owned(), Metrics::compute(exact, reference)?.rmse));
+            // The reference's own noise at this spp, counted as the suite counts glints.
+            same_samples
+                .push(("reference_over_twice_pixels".to_owned(), crate::suite::PixelFaults::count(exact, reference).over_twice as f64));
         }
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());
