@@ -35,8 +35,9 @@ pub struct Traversal {
     pub steps: u32,
 }
 
-/// Stochastic traversal (§5.2) from `start`: stop at a leaf, or at a `suitable` node when
-/// `stop_inner`; otherwise go left with p = w_l/(w_l+w_r) (Eq. 5.4). Both weights 0: no sample.
+/// Stochastic traversal (§5.2) from `start`: stop at a leaf, or, with `stop = Some(ratio)`, at an
+/// inner node that [`stops_at`] accepts (`None`: leaves only, RTSLC); otherwise go left with
+/// p = w_l/(w_l+w_r) (Eq. 5.4). Both weights 0: no sample.
 pub fn traverse(tree: &Sst, start: u32, x: &Surface, stop: Option<f32>, clamp2: f32, rng: &mut Rng) -> Traversal {
     let (mut node, mut p, mut steps) = (start, 1.0f32, 0u32);
     loop {

@@ -779,7 +779,7 @@ fn check_18_rmse_trends_against_vpl_exact() {
 
 #[test]
 fn bad_parameters_are_errors_not_panics() {
-    for bad in ["vpl_count=1000", "rsm_resolution=300", "v_min=nan", "block=0", "clamp=-1"] {
+    for bad in ["vpl_count=1000", "rsm_resolution=300", "v_min=nan", "block=0", "clamp=-1", "stop_ratio=0", "stop_ratio=nan"] {
         let e = VplTechnique::new(Variant::Lightcuts, &Settings::default(), &params(&[bad])).err().map(|e| e.to_string());
         println!("{bad}: {e:?}");
         assert!(e.is_some());

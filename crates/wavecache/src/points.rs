@@ -293,10 +293,9 @@ pub fn query(nodes: &[OctNode], positions: &[Vec3], normals: &[Vec3], q: &QueryP
     if nodes.is_empty() || positions.is_empty() {
         return None;
     }
-    let bound = |node: &OctNode| bound(q, node, x);
     let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
     let mut examined = 0u32;
-    let mut stack: Vec<(f32, u32)> = vec![(bound(&nodes[0]), 0)];
+    let mut stack: Vec<(f32, u32)> = vec![(bound(q, &nodes[0], x), 0)];
     while let Some((b, at)) = stack.pop() {
         if b <= best {
             continue;
@@ -315,7 +314,7 @@ pub fn query(nodes: &[OctNode], positions: &[Vec3], normals: &[Vec3], q: &QueryP
             }
         } else {
             let mut kids: Vec<(f32, u32)> =
-                (node.first_child..node.first_child + node.child_count).map(|c| (bound(&nodes[c as usize]), c)).collect();
+                (node.first_child..node.first_child + node.child_count).map(|c| (bound(q, &nodes[c as usize], x), c)).collect();
             // Ascending bound: the best child ends on top of the stack.
             kids.sort_by(|a, b| a.0.total_cmp(&b.0));
             stack.extend(kids.into_iter().filter(|k| k.0 > best));

@@ -859,7 +859,8 @@ fn disk_cache_round_trip_and_corruption() {
 fn bad_parameters_and_animated_scenes_are_errors() {
     let info = Wavecache::info();
     let scene = glimpse_scene::load("glossy").unwrap();
-    for bad in ["brdf_res=48", "map_scale=3", "sparsify=2", "wo_frame=sideways", "texel_samples=0"] {
+    for bad in ["brdf_res=48", "map_scale=3", "sparsify=2", "wo_frame=sideways", "texel_samples=0", "search_radius=-1", "search_radius=nan"]
+    {
         let params = Params::parse(&[bad]).unwrap();
         let e = (info.create)(&scene, &Settings::default(), &params).err().map(|e| e.to_string());
         println!("{bad}: {e:?}");
