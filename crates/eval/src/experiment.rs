@@ -160,6 +160,16 @@ fn slug(id: &str) -> String {
     id.chars().map(|c| if c.is_ascii_alphanumeric() || c == '-' { c } else { '_' }).collect()
 }
 
+/// The reference rendered again at the runs' own spp and seed.
+struct TimedReference {
+    /// Prepare + render, and render alone.
+    ms: f64,
+    render_ms: f64,
+    image: Image,
+    /// Its RMSE and pixels over 2× against the converged reference (single frames only).
+    noise: Option<(f64, u64)>,
+}
+
 pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<EvalResults> {
     let mut scene: Scene = glimpse_scene::load(&cfg.scene_spec)?;
     if cfg.overrides.apply(&mut scene).map_err(anyhow::Error::msg)? {
@@ -226,7 +236,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
     // The reference re-rendered at the runs' own spp and seed: its time, and its image (on the
     // same samples as a single-frame technique's, so their difference is the approximation's
     // alone, without the noise that the converged reference removes).
-    let mut reference_times: BTreeMap<String, (f64, f64, Image)> = BTreeMap::new();
+    let mut reference_times: BTreeMap<String, TimedReference> = BTreeMap::new();
     let mut runs = Vec::new();
     for id in &ids {
         let info = registry.get(id)?;
@@ -282,20 +292,26 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         if cfg.time_reference && info.reference.is_some() && !reference_times.contains_key(&ref_id) {
             let mut timed = (registry.get(&ref_id)?.create)(&scene, &settings, &Params::parse(&cfg.params)?)?;
             let t = render_once(timed.as_mut(), &ctx, &gbuffer)?;
-            reference_times.insert(ref_id.clone(), (t.prepare.total_ms() + t.render.total_ms(), t.render.total_ms(), t.image));
+            // Its own noise at this spp against its converged render (single frames only), once
+            // for every technique compared with it: the RMSE, and glints counted as the suite does.
+            let noise = if cfg.frames.max(1) == 1 {
+                Some((Metrics::compute(&t.image, reference)?.rmse, crate::suite::PixelFaults::count(&t.image, reference).over_twice))
+            } else {
+                None
+            };
+            let (ms, render_ms) = (t.prepare.total_ms() + t.render.total_ms(), t.render.total_ms());
+            reference_times.insert(ref_id.clone(), TimedReference { ms, render_ms, image: t.image, noise });
         }
         let timed_reference = reference_times.get(&ref_id).filter(|_| cfg.time_reference && info.reference.is_some());
-        let (reference_ms, reference_render_ms) = (timed_reference.map(|t| t.0), timed_reference.map(|t| t.1));
+        let (reference_ms, reference_render_ms) = (timed_reference.map(|t| t.ms), timed_reference.map(|t| t.render_ms));
         // Same samples (a single frame only: accumulated frames shade other samples).
         let mut same_samples = Vec::new();
-        if let (Some((_, _, exact)), 1) = (timed_reference, cfg.frames.max(1)) {
+        if let Some(TimedReference { image: exact, noise: Some((rmse, over_twice)), .. }) = timed_reference {
             let m = Metrics::compute(&r.image, exact)?;
             same_samples.push(("rmse_same_samples".to_owned(), m.rmse));
             same_samples.push(("flip_same_samples".to_owned(), m.flip));
-            same_samples.push(("reference_rmse_same_spp".to_owned(), Metrics::compute(exact, reference)?.rmse));
-            // The reference's own noise at this spp, counted as the suite counts glints.
-            same_samples
-                .push(("reference_over_twice_pixels".to_owned(), crate::suite::PixelFaults::count(exact, reference).over_twice as f64));
+            same_samples.push(("reference_rmse_same_spp".to_owned(), *rmse));
+            same_samples.push(("reference_over_twice_pixels".to_owned(), *over_twice as f64));
         }
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());

@@ -167,8 +167,7 @@ fn missing_files(toml_path: &Path, text: &str) -> Option<String> {
 /// light cuts' approximate techniques, and the distance-field baselines, which blend their
 /// frames with ROMA's accumulator and so are compared with ROMA after the same frames.
 pub fn is_temporal(id: &str) -> bool {
-    matches!(id, "ao-df" | "soft-df")
-        || glimpse_roma::techniques().iter().chain(glimpse_lightcuts::techniques().iter()).any(|t| t.id == id && t.reference.is_some())
+    matches!(id, "ao-df" | "soft-df") || glimpse_roma::techniques().iter().any(|t| t.id == id && t.reference.is_some()) || is_light_cuts(id)
 }
 
 /// The light cuts and their two baselines (`vpl-*`), whose spp is their sample budget n.

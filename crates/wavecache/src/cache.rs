@@ -651,19 +651,8 @@ pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
     let mut h = Fnv::default();
     h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
     h.bytes(&glimpse_render::RESULTS_REVISION.to_le_bytes());
-    // Every parameter that changes the cache (not the progress bar, the disk-cache switch, or
-    // what only the runtime reads: the tracing of sharp lobes and the query's settings).
-    let d = WavecacheParams::default();
-    let p = WavecacheParams {
-        disk_cache: true,
-        progress: true,
-        trace_sharp: true,
-        query_m: d.query_m,
-        normal_weight: d.normal_weight,
-        normal_cutoff_deg: d.normal_cutoff_deg,
-        search_radius: d.search_radius,
-        ..p.clone()
-    };
+    // Every parameter that changes the cache, and none that only the runtime reads.
+    let p = p.precompute_part();
     h.bytes(format!("{p:?} seed={seed}").as_bytes());
     for (i, inst) in scene.instances.iter().enumerate() {
         h.f32s(frame.transforms[i].to_cols_array());

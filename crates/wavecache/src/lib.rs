@@ -226,6 +226,29 @@ impl WavecacheParams {
         }
     }
 
+    /// These parameters with every setting that only the runtime reads (the progress bar, the
+    /// disk-cache switch, the tracing of sharp lobes, the query, the product's layers, the ω_o
+    /// frame, the mirror and coat chains) at its default: what the precomputation depends on,
+    /// and so what the disk cache's key hashes.
+    pub fn precompute_part(&self) -> Self {
+        let d = Self::default();
+        Self {
+            disk_cache: d.disk_cache,
+            progress: d.progress,
+            trace_sharp: d.trace_sharp,
+            sharp_texels: d.sharp_texels,
+            query_m: d.query_m,
+            normal_weight: d.normal_weight,
+            normal_cutoff_deg: d.normal_cutoff_deg,
+            search_radius: d.search_radius,
+            layers: d.layers,
+            wo_frame: d.wo_frame,
+            mirror_depth: d.mirror_depth,
+            coat_depth: d.coat_depth,
+            ..self.clone()
+        }
+    }
+
     /// The path budget once the ray budget is applied at `rays_per_path` (0: no limit).
     pub fn effective_path_budget(&self, rays_per_path: f64) -> u64 {
         let from_rays = (self.ray_budget > 0).then(|| ((self.ray_budget as f64 / rays_per_path.max(1.0)) as u64).max(1));

@@ -852,6 +852,9 @@ fn disk_cache_round_trip_and_corruption() {
     // Another parameter gives another key.
     let p2 = WavecacheParams { glossy_points: 61, ..p.clone() };
     assert_ne!(key, glimpse_wavecache::cache::cache_key(&ctx.frame, &p2, 1));
+    // A setting only the runtime reads keeps the key: the cache is reused.
+    let p3 = WavecacheParams { search_radius: 2.0, sharp_texels: 2.0, layers: 3, progress: false, ..p.clone() };
+    assert_eq!(key, glimpse_wavecache::cache::cache_key(&ctx.frame, &p3, 1));
     std::fs::remove_dir_all(&dir).ok();
 }
 
