@@ -17,7 +17,7 @@ use crate::vpl::Similarity;
 use glimpse_core::ray::offset_origin;
 use glimpse_core::{Rng, Vec3};
 use glimpse_render::direct::{Shading, segment};
-use glimpse_trace::Visibility;
+use glimpse_trace::{ShadowCache, Visibility};
 use std::f32::consts::PI;
 
 /// Which tree sampling strategy (§7.1).
@@ -119,12 +119,27 @@ pub fn vpl_term(s: &Shading, y: Vec3, ny: Vec3, color: Vec3, clamp2: f32) -> Vec
 /// The ray ends off the emitter's surface by the offset of `y_error_scale` (the node's,
 /// [`SstNode::error_scale`]).
 pub fn shade_point(vis: &dyn Visibility, s: &Shading, y: Vec3, ny: Vec3, y_error_scale: f32, color: Vec3, clamp2: f32) -> (Vec3, u64) {
+    shade_point_cached(vis, s, y, ny, y_error_scale, color, clamp2, &mut ShadowCache::default())
+}
+
+/// [`shade_point`] for one of a sequence of VPLs near each other, sharing a shadow cache.
+#[allow(clippy::too_many_arguments)]
+fn shade_point_cached(
+    vis: &dyn Visibility,
+    s: &Shading,
+    y: Vec3,
+    ny: Vec3,
+    y_error_scale: f32,
+    color: Vec3,
+    clamp2: f32,
+    cache: &mut ShadowCache,
+) -> (Vec3, u64) {
     let t = vpl_term(s, y, ny, color, clamp2);
     if t == Vec3::ZERO {
         return (Vec3::ZERO, 0);
     }
     let (ray, t_max) = segment(s.position, s.normal, s.error_scale, offset_origin(y, ny, y_error_scale));
-    if vis.occluded(&ray, t_max) { (Vec3::ZERO, 1) } else { (t, 1) }
+    if vis.occluded_cached(&ray, t_max, cache) { (Vec3::ZERO, 1) } else { (t, 1) }
 }
 
 /// Everything the per-pixel estimator reads.
@@ -207,8 +222,11 @@ impl Sampler<'_> {
 /// The exact sum over every VPL (leaf) with a shadow ray each: `vpl-exact`'s pixel.
 pub fn brute_force(tree: &Sst, vis: &dyn Visibility, s: &Shading, clamp2: f32) -> (Vec3, u64) {
     let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
+    // The leaves are in Morton order, so consecutive VPLs are near each other and often hidden
+    // by the same triangle: on the suite's `sponza-interior` a third of the blocked rays are.
+    let mut cache = ShadowCache::default();
     for leaf in &tree.nodes[tree.leaves as usize..] {
-        let (v, r) = shade_point(vis, s, leaf.pos, leaf.normal, leaf.error_scale, leaf.color, clamp2);
+        let (v, r) = shade_point_cached(vis, s, leaf.pos, leaf.normal, leaf.error_scale, leaf.color, clamp2, &mut cache);
         sum += v;
         rays += r;
     }

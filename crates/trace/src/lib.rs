@@ -23,7 +23,7 @@ pub mod triangle;
 pub use brute::BruteForce;
 pub use gbuffer::GBuffer;
 pub use surface::SurfacePoint;
-pub use tracer::{ExactTracer, Hit};
+pub use tracer::{ExactTracer, Hit, ShadowCache};
 
 use glimpse_core::Ray;
 pub use glimpse_scene::SceneFrame;
@@ -34,6 +34,13 @@ pub use glimpse_scene::SceneFrame;
 /// and benchmarks can swap one for another.
 pub trait Visibility: Send + Sync {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool;
+
+    /// `occluded`, for one of a sequence of related rays sharing `cache` (one point's rays to
+    /// a cluster of lights): the exact tracer first tests the triangle that blocked the
+    /// previous one ([`ExactTracer::occluded_cached`]). The default ignores the cache.
+    fn occluded_cached(&self, ray: &Ray, t_max: f32, _cache: &mut ShadowCache) -> bool {
+        self.occluded(ray, t_max)
+    }
 
     /// `out[i] = occluded(rays[i])` for a batch of independent rays (`out.len() == rays.len()`).
     /// Backends whose per-ray work vectorizes across rays (ROMA's stratum selection) override
@@ -53,6 +60,10 @@ pub trait ClosestHit: Visibility {
 impl Visibility for ExactTracer {
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         ExactTracer::occluded(self, ray, t_max)
+    }
+
+    fn occluded_cached(&self, ray: &Ray, t_max: f32, cache: &mut ShadowCache) -> bool {
+        ExactTracer::occluded_cached(self, ray, t_max, cache)
     }
 }
 

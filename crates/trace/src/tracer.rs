@@ -196,64 +196,129 @@ impl ExactTracer {
         self.trace::<true>(ray, t_max).is_some()
     }
 
-    /// The closest hit at `0 < t < t_max`.
-    pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
-        self.trace::<false>(ray, t_max)
+    /// [`occluded`](Self::occluded), testing first the triangle that blocked the previous ray
+    /// given the same `cache` (a shadow cache, Haines & Greenberg 1986): rays from one point
+    /// to a cluster of lights are often blocked by one triangle. The answer is `occluded`'s:
+    /// a remembered triangle counts only where the ray hits it inside `(0, t_max)`, and the
+    /// traversal's conservative boxes would have reached it too.
+    pub fn occluded_cached(&self, ray: &Ray, t_max: f32, cache: &mut ShadowCache) -> bool {
+        if let Some(blocker) = cache.0
+            && self.blocks(blocker, ray, t_max)
+        {
+            return true;
+        }
+        let found = self.trace::<true>(ray, t_max);
+        cache.0 = found.map(|f| f.blocker);
+        found.is_some()
     }
 
-    fn trace<const ANY: bool>(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+    /// The closest hit at `0 < t < t_max`.
+    pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
+        self.trace::<false>(ray, t_max).map(|f| f.hit)
+    }
+
+    /// Does the remembered triangle intersect `ray` at `0 < t < t_max`?
+    fn blocks(&self, b: Blocker, ray: &Ray, t_max: f32) -> bool {
+        let Some(e) = self.entries.get(b.entry as usize) else { return false };
+        let blas = &self.blases[e.blas as usize];
+        let Some(triangle) = blas.triangles.get(b.slot as usize) else { return false };
+        let local = self.local_ray(e, ray, &PreparedRay::new(ray));
+        match local.major_axis() {
+            0 => local.intersect_along::<0>(triangle, t_max).is_some(),
+            1 => local.intersect_along::<1>(triangle, t_max).is_some(),
+            _ => local.intersect_along::<2>(triangle, t_max).is_some(),
+        }
+    }
+
+    fn trace<const ANY: bool>(&self, ray: &Ray, t_max: f32) -> Option<Found> {
         let world = PreparedRay::new(ray);
-        let mut best: Option<Hit> = None;
+        let mut best: Option<Found> = None;
         let mut t_max = t_max;
         if let [entry] = &self.entries[..] {
             // One entry (a static scene): its BLAS's own boxes cull as well as the TLAS's would.
-            self.trace_entry::<ANY>(entry, ray, &world, &mut t_max, &mut best);
+            self.trace_entry::<ANY>(0, entry, ray, &world, &mut t_max, &mut best);
             return best;
         }
         if self.tlas_wide.nodes.is_empty() {
             return None;
         }
         traverse::<ANY>(&self.tlas_wide, &world, t_max, |first, count| {
-            for e in &self.entries[first..first + count] {
-                if self.trace_entry::<ANY>(e, ray, &world, &mut t_max, &mut best) {
+            for (k, e) in self.entries[first..first + count].iter().enumerate() {
+                if self.trace_entry::<ANY>((first + k) as u32, e, ray, &world, &mut t_max, &mut best) {
                     return Step::Stop;
                 }
             }
-            best.map_or(Step::Continue, |h| Step::Shrink(h.t))
+            best.map_or(Step::Continue, |f| Step::Shrink(f.hit.t))
         });
         best
     }
 
-    /// Traces one TLAS entry's BLAS, updating `best` and `t_max`; true when an any-hit query
-    /// is answered.
+    /// The ray in an entry's object space.
     #[inline(always)]
-    fn trace_entry<const ANY: bool>(&self, e: &Entry, ray: &Ray, world: &PreparedRay, t_max: &mut f32, best: &mut Option<Hit>) -> bool {
-        let blas = &self.blases[e.blas as usize];
-        let local = if e.identity {
+    fn local_ray(&self, e: &Entry, ray: &Ray, world: &PreparedRay) -> PreparedRay {
+        if e.identity {
             *world
         } else {
             let o = e.world_to_object.transform_point3(ray.origin);
             let d = e.world_to_object.transform_vector3(ray.dir);
             PreparedRay::new(&Ray::new(o, d))
-        };
+        }
+    }
+
+    /// Traces one TLAS entry's BLAS (entry number `index`), updating `best` and `t_max`; true
+    /// when an any-hit query is answered.
+    #[inline(always)]
+    fn trace_entry<const ANY: bool>(
+        &self,
+        index: u32,
+        e: &Entry,
+        ray: &Ray,
+        world: &PreparedRay,
+        t_max: &mut f32,
+        best: &mut Option<Found>,
+    ) -> bool {
+        let blas = &self.blases[e.blas as usize];
+        let local = self.local_ray(e, ray, world);
+        let ids = (index, e.instance);
         // The triangle test's copy for the ray's major axis, chosen once per ray.
         match local.major_axis() {
-            0 => trace_blas::<ANY, 0>(blas, e.instance, &local, t_max, best),
-            1 => trace_blas::<ANY, 1>(blas, e.instance, &local, t_max, best),
-            _ => trace_blas::<ANY, 2>(blas, e.instance, &local, t_max, best),
+            0 => trace_blas::<ANY, 0>(blas, ids, &local, t_max, best),
+            1 => trace_blas::<ANY, 1>(blas, ids, &local, t_max, best),
+            _ => trace_blas::<ANY, 2>(blas, ids, &local, t_max, best),
         }
     }
 }
 
+/// A triangle of the tracer: its TLAS entry and its slot in that entry's BLAS.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Blocker {
+    entry: u32,
+    slot: u32,
+}
+
+/// A hit and the triangle it is on.
+#[derive(Clone, Copy, Debug)]
+struct Found {
+    hit: Hit,
+    blocker: Blocker,
+}
+
+/// The triangle that blocked a caller's previous shadow ray ([`ExactTracer::occluded_cached`]):
+/// one per sequence of related rays (one shading point's rays to a cluster of lights), used
+/// with one tracer only.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct ShadowCache(Option<Blocker>);
+
 /// Traces `ray` (whose major axis is `KZ`) through one BLAS, updating `best` and `t_max`; true
-/// when an any-hit query is answered. `instance` stands in for ids marked [`FROM_ENTRY`].
+/// when an any-hit query is answered. `(entry, instance)`: the TLAS entry's number, and the
+/// instance that stands in for ids marked [`FROM_ENTRY`].
 #[inline(always)]
 fn trace_blas<const ANY: bool, const KZ: usize>(
     blas: &Blas,
-    instance: u32,
+    (entry, instance): (u32, u32),
     ray: &PreparedRay,
     t_max: &mut f32,
-    best: &mut Option<Hit>,
+    best: &mut Option<Found>,
 ) -> bool {
     let mut stop = false;
     traverse::<ANY>(&blas.wide, ray, *t_max, |first, count| {
@@ -263,7 +328,8 @@ fn trace_blas<const ANY: bool, const KZ: usize>(
                 let id = blas.ids[i];
                 let instance = if id.instance == FROM_ENTRY { instance } else { id.instance };
                 *t_max = t;
-                *best = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
+                let hit = Hit { t, b1, b2, instance, triangle: id.triangle };
+                *best = Some(Found { hit, blocker: Blocker { entry, slot: i as u32 } });
                 if ANY {
                     stop = true;
                     return Step::Stop;

@@ -4,7 +4,7 @@
 use glimpse_core::sampling::uniform_sphere;
 use glimpse_core::{Mat4, Ray, Rng, Vec3};
 use glimpse_scene::{Deformation, Instance, Material, Mesh, Motion, Scene};
-use glimpse_trace::{BruteForce, ClosestHit, ExactTracer, Visibility};
+use glimpse_trace::{BruteForce, ClosestHit, ExactTracer, ShadowCache, Visibility};
 
 fn random_rays(frame: &glimpse_scene::SceneFrame, n: usize, seed: u64) -> Vec<(Ray, f32)> {
     let b = frame.bounds;
@@ -40,7 +40,34 @@ fn compare(scene: &Scene, time: f32, rays: usize) -> (f64, f64) {
         closest_ok += same as usize;
     }
     let n = rays.len() as f64;
+    assert_eq!(shadow_cache_disagreements(&bvh, &brute, &frame), 0, "the shadow cache changed an answer");
     (any_ok as f64 / n, closest_ok as f64 / n)
+}
+
+/// Shadow rays as the VPL reference traces them: from one point to a cluster of nearby points,
+/// sharing a [`ShadowCache`]. Returns how many answers differ from the oracle's (and prints how
+/// many rays were blocked, so the remembered triangle had work to do).
+fn shadow_cache_disagreements(bvh: &ExactTracer, brute: &BruteForce, frame: &glimpse_scene::SceneFrame) -> usize {
+    let b = frame.bounds;
+    let mut rng = Rng::new(17, 2);
+    let mut point = || b.min + (b.max - b.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let (mut wrong, mut blocked, mut rays) = (0, 0, 0);
+    for _ in 0..200 {
+        let (origin, target) = (point(), point());
+        let mut cache = ShadowCache::default();
+        for k in 0..32 {
+            let jitter = Vec3::new((k % 4) as f32, ((k / 4) % 4) as f32, (k / 16) as f32) * 0.05;
+            let to = target + jitter - origin;
+            let (ray, t_max) = (Ray::new(origin, to.normalize()), to.length());
+            let cached = bvh.occluded_cached(&ray, t_max, &mut cache);
+            let oracle = brute.occluded(&ray, t_max);
+            wrong += (cached != oracle) as usize;
+            blocked += oracle as usize;
+            rays += 1;
+        }
+    }
+    println!("shadow cache: {blocked} of {rays} coherent shadow rays blocked, {wrong} answers differ from the oracle");
+    wrong
 }
 
 fn soup(n: usize, seed: u64) -> Scene {
