@@ -18,6 +18,7 @@
 
 use crate::atomic_file::{self, STALE_TEMP_AGE, WriteError};
 use crate::bounded_read::{self, ReadError};
+use std::io::Write;
 use std::path::Path;
 
 pub const HEADER_BYTES: usize = 32;
@@ -57,14 +58,23 @@ pub fn checksum(payload: &[u8]) -> u64 {
     xxhash_rust::xxh3::xxh3_64(payload)
 }
 
-/// The whole file (header + payload) as bytes.
-pub fn encode(format: CacheFormat, payload: &[u8]) -> Vec<u8> {
-    let mut out = Vec::with_capacity(HEADER_BYTES + payload.len());
+/// The file's header for the payload that is `parts` one after another.
+fn header(format: CacheFormat, parts: &[&[u8]]) -> Vec<u8> {
+    let mut sum = xxhash_rust::xxh3::Xxh3::new();
+    parts.iter().for_each(|p| sum.update(p));
+    let len: usize = parts.iter().map(|p| p.len()).sum();
+    let mut out = Vec::with_capacity(HEADER_BYTES);
     out.extend_from_slice(&format.magic);
     out.extend_from_slice(&format.version.to_le_bytes());
     out.extend_from_slice(&0u32.to_le_bytes());
-    out.extend_from_slice(&(payload.len() as u64).to_le_bytes());
-    out.extend_from_slice(&checksum(payload).to_le_bytes());
+    out.extend_from_slice(&(len as u64).to_le_bytes());
+    out.extend_from_slice(&sum.digest().to_le_bytes());
+    out
+}
+
+/// The whole file (header + payload) as bytes.
+pub fn encode(format: CacheFormat, payload: &[u8]) -> Vec<u8> {
+    let mut out = header(format, &[payload]);
     out.extend_from_slice(payload);
     out
 }
@@ -96,11 +106,21 @@ pub fn decode(format: CacheFormat, path: &Path, data: &[u8]) -> Result<Vec<u8>, 
 /// Writes `payload` to `path` (creating its folder) atomically, and removes stale temporary
 /// files that killed writers left in that folder.
 pub fn write(path: &Path, format: CacheFormat, payload: &[u8]) -> Result<(), WriteError> {
+    write_parts(path, format, &[payload])
+}
+
+/// [`write`] for a payload given as consecutive parts, never copied into one buffer (a large
+/// array can be written from where it lies: caches reach hundreds of MB).
+pub fn write_parts(path: &Path, format: CacheFormat, parts: &[&[u8]]) -> Result<(), WriteError> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|source| WriteError { path: path.to_owned(), step: "create the folder of", source })?;
         atomic_file::remove_stale_temps(dir, STALE_TEMP_AGE);
     }
-    atomic_file::write_bytes_atomic(path, &encode(format, payload))
+    let header = header(format, parts);
+    atomic_file::write_atomic(path, |w| {
+        w.write_all(&header)?;
+        parts.iter().try_for_each(|p| w.write_all(p))
+    })
 }
 
 /// Reads and validates the file at `path` (a regular file of at most `limit` bytes).
@@ -144,6 +164,15 @@ mod tests {
         let p = tmp("ok.bin");
         write(&p, F, b"payload bytes").unwrap();
         assert_eq!(read(&p, F, 1 << 20).unwrap(), b"payload bytes");
+    }
+
+    #[test]
+    fn a_payload_written_in_parts_is_the_same_file() {
+        let (whole, parts) = (tmp("whole.bin"), tmp("parts.bin"));
+        write(&whole, F, b"payload bytes").unwrap();
+        write_parts(&parts, F, &[b"pay", b"", b"load bytes"]).unwrap();
+        assert_eq!(std::fs::read(&parts).unwrap(), std::fs::read(&whole).unwrap());
+        assert_eq!(std::fs::read(&parts).unwrap(), encode(F, b"payload bytes"));
     }
 
     #[test]

@@ -52,17 +52,19 @@ pub fn store(path: &Path, array: &VoxArray) -> Result<bool, String> {
         VoxArray::R64(a) => to_payload(a),
         VoxArray::R128(a) => to_payload(a),
     };
-    let Some(payload) = payload else { return Ok(false) };
+    let Some((head, indices, tail)) = payload else { return Ok(false) };
     if let Some(parent) = path.parent() {
         std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
     }
-    cache_file::write(path, FORMAT, &payload).map_err(|e| e.to_string())?;
+    cache_file::write_parts(path, FORMAT, &[&head, indices, &tail]).map_err(|e| e.to_string())?;
     Ok(true)
 }
 
-fn to_payload<R: Row>(a: &Array<R>) -> Option<Vec<u8>> {
+/// The payload in three parts: the fields up to the packed indices' length, the indices (most
+/// of the file, written from the array itself), the compression report.
+fn to_payload<R: Row>(a: &Array<R>) -> Option<(Vec<u8>, &[u8], Vec<u8>)> {
     let Rows::Compressed(c) = &a.rows else { return None };
-    let mut out = Vec::with_capacity(64 + c.dictionary.len() * 16 + c.indices.len() * 8);
+    let mut out = Vec::with_capacity(64 + c.dictionary.len() * 16);
     let put32 = |o: &mut Vec<u8>, v: u32| o.extend_from_slice(&v.to_le_bytes());
     let put64 = |o: &mut Vec<u8>, v: u64| o.extend_from_slice(&v.to_le_bytes());
     let putf = |o: &mut Vec<u8>, v: f32| o.extend_from_slice(&v.to_le_bytes());
@@ -80,7 +82,7 @@ fn to_payload<R: Row>(a: &Array<R>) -> Option<Vec<u8>> {
         out.extend_from_slice(&r.to_u128().to_le_bytes());
     }
     put64(&mut out, c.indices.len() as u64);
-    out.extend_from_slice(bytemuck::cast_slice(&c.indices));
+    let head = std::mem::take(&mut out);
     let report = a.compression.clone().unwrap_or_default();
     for v in [report.rows, report.distinct_rows, report.dictionary_rows, report.random] {
         put64(&mut out, v);
@@ -90,7 +92,7 @@ fn to_payload<R: Row>(a: &Array<R>) -> Option<Vec<u8>> {
     for &v in &report.mapped_at_step {
         put64(&mut out, v);
     }
-    Some(out)
+    Some((head, bytemuck::cast_slice(&c.indices), out))
 }
 
 /// Reads little-endian fields off the front of a payload, failing on a short one.
