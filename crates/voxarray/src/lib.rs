@@ -179,7 +179,7 @@ impl<R: Row> Array<R> {
         // array (2 GB at the defaults; see `compress::compress_slabs`).
         let (rows, compression) = match &p.compress {
             Some(c) => {
-                let fill = |i: usize, slab: &mut [R]| voxelize::voxelize_slab(triangles, &grid, &dirs, i, slab, &mut Vec::new());
+                let fill = |i: usize, slab: &mut [R]| voxelize::voxelize_slab(triangles, &grid, &dirs, i, slab);
                 let (compressed, report) = compress::compress_slabs(dirs.n as usize, voxelize::slab_rows::<R>(&dirs), fill, c);
                 (Rows::Compressed(compressed), Some(report))
             }
