@@ -202,12 +202,13 @@ impl ExactTracer {
     /// a remembered triangle counts only where the ray hits it inside `(0, t_max)`, and the
     /// traversal's conservative boxes would have reached it too.
     pub fn occluded_cached(&self, ray: &Ray, t_max: f32, cache: &mut ShadowCache) -> bool {
+        let world = PreparedRay::new(ray);
         if let Some(blocker) = cache.0
-            && self.blocks(blocker, ray, t_max)
+            && self.blocks(blocker, ray, &world, t_max)
         {
             return true;
         }
-        let found = self.trace::<true>(ray, t_max);
+        let found = self.trace_prepared::<true>(ray, &world, t_max);
         cache.0 = found.map(|f| f.blocker);
         found.is_some()
     }
@@ -218,11 +219,11 @@ impl ExactTracer {
     }
 
     /// Does the remembered triangle intersect `ray` at `0 < t < t_max`?
-    fn blocks(&self, b: Blocker, ray: &Ray, t_max: f32) -> bool {
+    fn blocks(&self, b: Blocker, ray: &Ray, world: &PreparedRay, t_max: f32) -> bool {
         let Some(e) = self.entries.get(b.entry as usize) else { return false };
         let blas = &self.blases[e.blas as usize];
         let Some(triangle) = blas.triangles.get(b.slot as usize) else { return false };
-        let local = self.local_ray(e, ray, &PreparedRay::new(ray));
+        let local = self.local_ray(e, ray, world);
         match local.major_axis() {
             0 => local.intersect_along::<0>(triangle, t_max).is_some(),
             1 => local.intersect_along::<1>(triangle, t_max).is_some(),
@@ -231,20 +232,24 @@ impl ExactTracer {
     }
 
     fn trace<const ANY: bool>(&self, ray: &Ray, t_max: f32) -> Option<Found> {
-        let world = PreparedRay::new(ray);
+        self.trace_prepared::<ANY>(ray, &PreparedRay::new(ray), t_max)
+    }
+
+    /// [`trace`](Self::trace) with the ray already prepared (`world`).
+    fn trace_prepared<const ANY: bool>(&self, ray: &Ray, world: &PreparedRay, t_max: f32) -> Option<Found> {
         let mut best: Option<Found> = None;
         let mut t_max = t_max;
         if let [entry] = &self.entries[..] {
             // One entry (a static scene): its BLAS's own boxes cull as well as the TLAS's would.
-            self.trace_entry::<ANY>(0, entry, ray, &world, &mut t_max, &mut best);
+            self.trace_entry::<ANY>(0, entry, ray, world, &mut t_max, &mut best);
             return best;
         }
         if self.tlas_wide.nodes.is_empty() {
             return None;
         }
-        traverse::<ANY>(&self.tlas_wide, &world, t_max, |first, count| {
+        traverse::<ANY>(&self.tlas_wide, world, t_max, |first, count| {
             for (k, e) in self.entries[first..first + count].iter().enumerate() {
-                if self.trace_entry::<ANY>((first + k) as u32, e, ray, &world, &mut t_max, &mut best) {
+                if self.trace_entry::<ANY>((first + k) as u32, e, ray, world, &mut t_max, &mut best) {
                     return Step::Stop;
                 }
             }

@@ -53,9 +53,7 @@ pub fn store(path: &Path, array: &VoxArray) -> Result<bool, String> {
         VoxArray::R128(a) => to_payload(a),
     };
     let Some((head, indices, tail)) = payload else { return Ok(false) };
-    if let Some(parent) = path.parent() {
-        std::fs::create_dir_all(parent).map_err(|e| format!("{}: {e}", parent.display()))?;
-    }
+    // `write_parts` creates the folder.
     cache_file::write_parts(path, FORMAT, &[&head, indices, &tail]).map_err(|e| e.to_string())?;
     Ok(true)
 }

@@ -66,9 +66,8 @@ pub fn set_voxel<R: Row>(vox: &mut [R], n: u32, x: u32, y: u32, z: u32) {
 }
 
 /// `SPVoxelization` of one frame: the triangles (in cells of that frame) rasterized along x, y
-/// and z into `vox` (N² rows). They come as an iterator so that a caller can transform them on
-/// the way: a buffer of a million transformed triangles per voxelization costs more in memory
-/// traffic than their rasterization.
+/// and z into `vox` (N² rows). They come as an iterator, so a caller transforms them on the way
+/// without a scratch buffer.
 pub fn sp_voxelization<R: Row>(cells: impl IntoIterator<Item = [Vec3; 3]>, vox: &mut [R]) {
     let n = R::BITS;
     for t in cells {
