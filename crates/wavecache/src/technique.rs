@@ -298,8 +298,8 @@ impl<'a> Runtime<'a> {
             max_candidates: self.params.query_m,
             search_radius: self.params.search_radius * r_max,
         };
-        let i = points::query_points(nodes, pts, &q, s.position, ns)?;
-        pts.get(i as usize).filter(|p| Vec3::from(p.normal).dot(s.normal) > 0.0)
+        let i = points::query_points(nodes, pts, &q, s.position, ns, s.normal)?;
+        pts.get(i as usize)
     }
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.

@@ -670,7 +670,7 @@ fn check_14_octree() {
         .zip(&ln)
         .map(|(p, n)| CachePoint { position: p.to_array(), normal: n.to_array(), shading_normal: n.to_array(), energy: 1.0, payload: 0 })
         .collect();
-    let (mut differ, mut far_preferred) = (0, 0);
+    let (mut differ, mut far_preferred, mut wrong_side, mut best_was_wrong_side) = (0, 0, 0, 0);
     for radius in [f32::INFINITY, 0.15, 0.4] {
         let q = QueryParams { search_radius: radius, ..q };
         for _ in 0..500 {
@@ -678,15 +678,27 @@ fn check_14_octree() {
             // Any normal: most queries find points of their orientation only far across the
             // sphere, which the unbounded cutoff bonus would prefer.
             let n = glimpse_core::sampling::uniform_sphere(rng.next_2d());
-            let got = points::query_points(&nodes, &pts, &q, x, n).unwrap();
-            let brute = (0..lp.len()).map(|i| points::score(&q, x, n, lp[i], ln[i])).fold(f32::MIN, f32::max);
+            // The surface's side: only points whose normal faces it count; near `n` but not
+            // equal, so points the score prefers are sometimes on the wrong side.
+            let side = (n + glimpse_core::sampling::uniform_sphere(rng.next_2d()) * 0.8).normalize_or(n);
+            let got = points::query_points(&nodes, &pts, &q, x, n, side).unwrap();
+            let brute =
+                (0..lp.len()).filter(|&i| ln[i].dot(side) > 0.0).map(|i| points::score(&q, x, n, lp[i], ln[i])).fold(f32::MIN, f32::max);
             let s = points::score(&q, x, n, lp[got as usize], ln[got as usize]);
             differ += (s != brute) as u32;
             far_preferred += (s > 1e3 && lp[got as usize].distance(x) > radius) as u32;
+            wrong_side += (ln[got as usize].dot(side) <= 0.0) as u32;
+            let unfiltered =
+                (0..lp.len()).max_by(|&a, &b| points::score(&q, x, n, lp[a], ln[a]).total_cmp(&points::score(&q, x, n, lp[b], ln[b])));
+            best_was_wrong_side += unfiltered.is_some_and(|i| ln[i].dot(side) <= 0.0) as u32;
         }
     }
-    println!("runtime query (search radius) vs brute force: {differ} of 1500 differ; preferred beyond the radius: {far_preferred}");
-    assert_eq!((differ, far_preferred), (0, 0));
+    println!(
+        "runtime query (search radius, side) vs brute force: {differ} of 1500 differ; preferred beyond the radius: {far_preferred}; \
+         on the wrong side: {wrong_side} (the unfiltered best was on the wrong side in {best_was_wrong_side})"
+    );
+    assert_eq!((differ, far_preferred, wrong_side), (0, 0, 0));
+    assert!(best_was_wrong_side > 0, "the test must reach queries where the side filter decides");
 }
 
 // ---------------------------------------------------------------------------------------------
