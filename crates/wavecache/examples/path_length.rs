@@ -14,7 +14,7 @@ fn main() {
         let frame = scene.at(0.0);
         let tracer = ExactTracer::build(&frame);
         let (classes, areas) = classes_and_areas(&frame, &p);
-        let full = plan_points(&scene, &WavecacheParams { path_budget: 0, ..p.clone() }, &classes, &areas);
+        let full = plan_points(&frame, &WavecacheParams { path_budget: 0, ..p.clone() }, &classes, &areas);
         let sw = std::time::Instant::now();
         let m = mean_rays_per_path(&frame, &tracer, &p, 0);
         let budget = p.effective_path_budget(m);

@@ -105,6 +105,10 @@ pub struct WavecacheParams {
     pub glossy_points: u32,
     /// Fewest points per mesh.
     pub min_points: u32,
+    /// Closest spacing (r_max) a mesh's points are given, in units of the scene's diagonal
+    /// (`min_spacing`; 0: none, the paper's profile): a class's budget is shared by area, so a
+    /// class of tiny total area got its whole budget there ([`cache::plan_points`]).
+    pub min_spacing: f32,
     /// Most paths the lighting precomputation traces (`budget`; 0: no limit, the paper's
     /// profile): both point budgets shrink together to fit ([`cache::plan_points`]).
     pub path_budget: u64,
@@ -183,6 +187,7 @@ impl Default for WavecacheParams {
             diffuse_points: 20000,
             glossy_points: 4000,
             min_points: 16,
+            min_spacing: 1e-3,
             path_budget: DEFAULT_PATH_BUDGET,
             ray_budget: DEFAULT_RAY_BUDGET,
             max_depth: 8,
@@ -219,6 +224,7 @@ impl WavecacheParams {
             texel_samples: 128,
             path_budget: 0,
             ray_budget: 0,
+            min_spacing: 0.0,
             trace_sharp: false,
             sharp_texels: 1.0,
             search_radius: f32::INFINITY,
@@ -286,6 +292,7 @@ impl WavecacheParams {
             diffuse_points: params.u32("diffuse_points", base.diffuse_points, 1, 50_000_000)?,
             glossy_points: params.u32("glossy_points", base.glossy_points, 1, 50_000_000)?,
             min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
+            min_spacing: params.f32("min_spacing", base.min_spacing, 0.0, 1.0)?,
             path_budget: params.i64("budget", base.path_budget as i64, 0, 1 << 40)? as u64,
             ray_budget: params.i64("ray_budget", base.ray_budget as i64, 0, 1 << 44)? as u64,
             max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
