@@ -323,6 +323,10 @@ pub fn query(nodes: &[OctNode], positions: &[Vec3], normals: &[Vec3], q: &QueryP
     best_i
 }
 
+/// Points of the other side [`query_points`] passes over, × `max_candidates`, before it decides
+/// that the query's side has none near.
+pub const OTHER_SIDE_LIMIT: u32 = 64;
+
 /// [`query`] over cache points stored in leaf order, among the points on the `side` of their
 /// surface (geometric normal · `side` > 0).
 ///
@@ -337,7 +341,7 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
         return None;
     }
     let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
-    let mut examined = 0u32;
+    let (mut examined, mut other_side) = (0u32, 0u32);
     // A fixed stack (no allocation per pixel): depth ≤ MAX_DEPTH levels × ≤ 8 children.
     let mut stack = [(0f32, 0u32); 8 * (MAX_DEPTH as usize + 2)];
     stack[0] = (bound(q, &nodes[0], x), 0);
@@ -351,11 +355,17 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
         if q.max_candidates > 0 && examined >= q.max_candidates && best_i.is_some() {
             break;
         }
+        // A surface whose side has no points near (a back face the cache was not made for):
+        // give up as the cap would, rather than visit the whole mesh for every such pixel.
+        if q.max_candidates > 0 && best_i.is_none() && other_side >= OTHER_SIDE_LIMIT * q.max_candidates {
+            break;
+        }
         let node = &nodes[at as usize];
         if node.child_count == 0 {
             for i in node.first_point..node.first_point + node.point_count {
                 let p = &pts[i as usize];
                 if Vec3::from(p.normal).dot(side) <= 0.0 {
+                    other_side += 1;
                     continue;
                 }
                 let s = score(q, x, n, Vec3::from(p.position), Vec3::from(p.shading_normal));

@@ -699,6 +699,14 @@ fn check_14_octree() {
     );
     assert_eq!((differ, far_preferred, wrong_side), (0, 0, 0));
     assert!(best_was_wrong_side > 0, "the test must reach queries where the side filter decides");
+    // No point on the query's side: none found, after a bounded search when the candidates are
+    // capped (the runtime's `query_m`), and after the whole tree when they are not.
+    let flipped: Vec<CachePoint> = pts.iter().map(|p| CachePoint { normal: [0.0, 1.0, 0.0], ..*p }).collect();
+    let down = Vec3::new(0.0, -1.0, 0.0);
+    for cap in [0, 32] {
+        let q = QueryParams { max_candidates: cap, ..q };
+        assert_eq!(points::query_points(&nodes, &flipped, &q, Vec3::ZERO, down, down), None);
+    }
 }
 
 // ---------------------------------------------------------------------------------------------
