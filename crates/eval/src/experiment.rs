@@ -287,6 +287,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         let r = render_frames(technique.as_mut(), &mut ctx, &gbuffer, cfg.frames)?;
         let faults = crate::suite::PixelFaults::count(&r.image, reference);
         let metrics = Metrics::compute(&r.image, reference)?;
+        let mse_trimmed = glimpse_render::metrics::mse_without_worst(&r.image, reference, crate::suite::TRIMMED_FRACTION)?;
         // Every technique of one eval shares spp, seed and parameters, so a reference is timed
         // once and its time serves each technique compared with it.
         if cfg.time_reference && info.reference.is_some() && !reference_times.contains_key(&ref_id) {
@@ -355,6 +356,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
                 .chain(r.prepare.metrics.iter().chain(&r.render.metrics).cloned())
                 .chain(faults.to_pairs().map(|(k, v)| (k.to_owned(), v)))
                 .chain(same_samples)
+                .chain([("mse_trimmed".to_owned(), mse_trimmed)])
                 .collect(),
             params: params.effective(),
             images,

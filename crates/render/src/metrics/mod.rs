@@ -34,7 +34,7 @@ pub use error_map::{ErrorMapKind, error_map};
 pub use flip::{FLIP_PIXELS_PER_DEGREE, flip_ldr};
 pub use hdr_flip::{HdrFlip, HdrFlipExposures, aces_tone_map, flip_hdr, flip_hdr_with};
 pub use map::ScalarMap;
-pub use mse::{mse, rmse};
+pub use mse::{mse, mse_without_worst, rmse};
 pub use psnr::{psnr, psnr_with_peak};
 pub use relmse::{RELMSE_EPSILON, relmse};
 pub use shadow::{ShadowErrors, shadow_errors_from_visibility, visibility_words_per_pixel};
