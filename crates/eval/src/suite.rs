@@ -409,10 +409,10 @@ fn cross_checks(cells: &mut [Cell]) {
     let get = |cells: &[Cell], id: &str, f: fn(&Cell) -> f64| cells.iter().find(|c| c.technique == id).map(f);
     let roma_df = (get(cells, "ao-roma", |c| c.flip), get(cells, "ao-df", |c| c.flip));
     let cost = |c: &Cell| c.mse * c.ms;
-    let vpl: Vec<(&str, f64)> = ["vpl-sst", "vpl-rtslc"].iter().filter_map(|&id| get(cells, id, cost).map(|v| (id, v))).collect();
+    let others = ["vpl-sst", "vpl-rtslc"];
+    let vpl: Vec<(&str, f64)> = others.iter().filter_map(|&id| get(cells, id, cost).map(|v| (id, v))).collect();
     let cost_trimmed = |c: &Cell| c.mse_trimmed.map(|m| m * c.ms);
-    let vpl_trimmed: Option<f64> =
-        cells.iter().filter(|c| c.technique == "vpl-sst" || c.technique == "vpl-rtslc").filter_map(cost_trimmed).reduce(f64::min);
+    let vpl_trimmed = cells.iter().filter(|c| others.contains(&c.technique.as_str())).filter_map(cost_trimmed).reduce(f64::min);
     for c in cells.iter_mut() {
         if let ("ao-roma", (Some(roma), Some(df))) = (c.technique.as_str(), roma_df) {
             let pass = roma < df;
@@ -431,15 +431,14 @@ fn cross_checks(cells: &mut [Cell]) {
                 // Whether a few pixels decide it: the same comparison without each method's worst
                 // pixels (the light cuts' bias is spread over the image; a VPL's hot spot is not).
                 let outliers = match (cost_trimmed(c), vpl_trimmed) {
-                    (Some(m), Some(b)) if m < b => {
-                        format!(
-                            "; without each method's worst {:.1} % of pixels it is ahead, {m:.3e} vs {b:.3e}: a few pixels decide it",
-                            100.0 * TRIMMED_FRACTION
-                        )
-                    }
                     (Some(m), Some(b)) => {
+                        let (standing, meaning) = if m < b {
+                            ("it is ahead", "a few pixels decide it")
+                        } else {
+                            ("still behind", "the gap is spread over the image")
+                        };
                         format!(
-                            "; without each method's worst {:.1} % of pixels still behind, {m:.3e} vs {b:.3e}: the gap is spread over the image",
+                            "; without each method's worst {:.1} % of pixels {standing}, {m:.3e} vs {b:.3e}: {meaning}",
                             100.0 * TRIMMED_FRACTION
                         )
                     }

@@ -32,17 +32,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             continue;
         }
         let s = ShadePoint::at_pixel(&g, i);
-        let wo = -g.view_dir[i];
-        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let ns = s.facing_normal(-g.view_dir[i]);
         let mc = cache.meshes[s.instance as usize];
         match rt.lookup(&s, ns) {
             Some(p) => {
                 let d = (Vec3::from(p.position) - s.position).length() / mc.r_max;
                 let diffuse = mc.class == glimpse_wavecache::Class::Diffuse as u32;
-                let e = cache.irradiance.get(p.payload as usize).filter(|_| diffuse).map_or(-1.0, |v| {
-                    let f = |x| glimpse_wavecache::half::f16_to_f32(x);
-                    glimpse_core::luminance(Vec3::new(f(v[0]), f(v[1]), f(v[2])))
-                });
+                let e = cache.irradiance_at(p.payload).filter(|_| diffuse).map_or(-1.0, glimpse_core::luminance);
                 out.pixels[i] = Vec3::new(d, 1.0, e);
             }
             None => out.pixels[i] = Vec3::new(-1.0, 0.0, 0.0),

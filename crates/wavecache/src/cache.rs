@@ -61,6 +61,13 @@ fn bytes<T: Pod>(v: &[T]) -> usize {
 }
 
 impl WaveCache {
+    /// The irradiance a diffuse cache point stores (its `payload`), decoded from fp16; `None`
+    /// for a payload outside the table.
+    pub fn irradiance_at(&self, payload: u32) -> Option<Vec3> {
+        let f = crate::half::f16_to_f32_finite;
+        self.irradiance.get(payload as usize).map(|v| Vec3::new(f(v[0]), f(v[1]), f(v[2])))
+    }
+
     /// Bytes of the BRDF part (tables and trees) — Table 3's "pre-storage BRDFs".
     pub fn brdf_bytes(&self) -> usize {
         bytes(&self.brdf_tables) + bytes(&self.brdf_trees) + bytes(&self.brdf_nodes) + bytes(&self.albedo)

@@ -27,7 +27,6 @@ use crate::bake::CachePoint;
 use crate::brdf;
 use crate::cache::{ALBEDO_BINS, WaveCache, cache_key};
 use crate::haar;
-use crate::half::f16_to_f32_finite as f16_to_f32;
 use crate::halfcube::map_frame;
 use crate::points::{self, QueryParams};
 use crate::{Class, WavecacheParams, WoFrame};
@@ -240,6 +239,12 @@ impl ShadePoint {
         }
     }
 
+    /// The normal shading and the cache lookup use when seen from `wo`: the shading normal where
+    /// it faces `wo`, else the geometric one.
+    pub fn facing_normal(&self, wo: Vec3) -> Vec3 {
+        if self.shading_normal.dot(wo) > 0.0 { self.shading_normal } else { self.normal }
+    }
+
     /// The surface a GBuffer pixel sees.
     pub fn at_pixel(g: &GBuffer, i: usize) -> Self {
         Self {
@@ -333,18 +338,14 @@ impl<'a> Runtime<'a> {
         let Some(class) = self.classes.get(s.material as usize) else {
             return Vec3::ZERO;
         };
-        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let ns = s.facing_normal(wo);
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
                 let Some(p) = self.lookup(s, ns) else {
                     return Vec3::ZERO;
                 };
-                let e = self
-                    .cache
-                    .irradiance
-                    .get(p.payload as usize)
-                    .map_or(Vec3::ZERO, |v| Vec3::new(f16_to_f32(v[0]), f16_to_f32(v[1]), f16_to_f32(v[2])));
+                let e = self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO);
                 let base = s.material as usize * ALBEDO_BINS as usize;
                 let table = self.cache.albedo.get(base..base + ALBEDO_BINS as usize).unwrap_or(&[]);
                 let [ad, as_] = brdf::albedo_lookup(table, ns.dot(wo));
@@ -422,7 +423,7 @@ impl<'a> Runtime<'a> {
         // Eq. 21 and the clear-coat ray (Eqs. 11–12): the base (cache and punctual lights) seen
         // through the coat, (1 − F_c), plus F_c times the radiance along the mirror direction,
         // traced (h = n for the smooth coat, as `pt`'s `ClearCoat`).
-        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let ns = s.facing_normal(wo);
         let fc = clear_coat_fresnel(ns.dot(wo).clamp(0.0, 1.0), gamma);
         let (coat, coat_rays) = self.specular_ray(s, wo, ns, depth, self.params.coat_depth, rng);
         (base * (1.0 - fc) + coat * fc, rays + coat_rays)
@@ -521,7 +522,7 @@ impl<'a> Runtime<'a> {
     /// Eq. 18: the perfect-mirror chain.
     fn mirror(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let m = &self.frame.scene.materials[s.material as usize];
-        let ns = if s.shading_normal.dot(wo) > 0.0 { s.shading_normal } else { s.normal };
+        let ns = s.facing_normal(wo);
         let cos = ns.dot(wo);
         if cos <= 0.0 {
             return (Vec3::ZERO, 0);
