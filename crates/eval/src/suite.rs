@@ -413,6 +413,7 @@ fn cross_checks(cells: &mut [Cell]) {
     let vpl: Vec<(&str, f64)> = others.iter().filter_map(|&id| get(cells, id, cost).map(|v| (id, v))).collect();
     let cost_trimmed = |c: &Cell| c.mse_trimmed.map(|m| m * c.ms);
     let vpl_trimmed = cells.iter().filter(|c| others.contains(&c.technique.as_str())).filter_map(cost_trimmed).reduce(f64::min);
+    let others_cells: Vec<Cell> = cells.iter().filter(|c| others.contains(&c.technique.as_str())).cloned().collect();
     for c in cells.iter_mut() {
         if let ("ao-roma", (Some(roma), Some(df))) = (c.technique.as_str(), roma_df) {
             let pass = roma < df;
@@ -425,6 +426,7 @@ fn cross_checks(cells: &mut [Cell]) {
             && let Some(&(best_id, best)) = vpl.iter().min_by(|a, b| a.1.total_cmp(&b.1))
         {
             let mine = cost(c);
+            let best_cell = others_cells.iter().find(|k| k.technique == best_id);
             let pass = mine < best;
             c.checks.push(Check { what: format!("MSE × ms below the other VPL methods' best ({best_id} {best:.3e})"), pass });
             if !pass {
@@ -444,9 +446,25 @@ fn cross_checks(cells: &mut [Cell]) {
                     }
                     _ => String::new(),
                 };
+                let ratio = |f: fn(&Cell) -> f64| match (f(c), best_cell.map(f)) {
+                    (m, Some(b)) if b > 0.0 => format!("{:.2}×", m / b),
+                    _ => "?".to_owned(),
+                };
+                let why = if best_id == "vpl-rtslc" {
+                    "with its stopped clusters lit by picked VPLs (the default) its estimator is vpl-rtslc's with cheaper last steps, so the two are level within the seed and frame-time noise".to_owned()
+                } else {
+                    let rtslc_too = vpl.iter().any(|&(id, v)| id == "vpl-rtslc" && v > best);
+                    format!(
+                        "{best_id}'s traversals from the root sample this scene better than the 8×8-block cuts{}",
+                        if rtslc_too { " (vpl-rtslc, on the same cuts, is behind it too)" } else { "" }
+                    )
+                };
                 c.reasons.push(format!(
-                    "at equal time it is behind {best_id}: MSE × ms per frame {mine:.3e} vs {best:.3e} (its MSE {:.2e} in {:.1} ms){outliers}; on the CPU the traversal steps its early termination saves are a small part of a frame, and its clusters' bias stays when frames accumulate: docs/techniques/lightcuts.md, \"The stop rule\"",
-                    c.mse, c.ms
+                    "at equal time it is behind {best_id}: MSE × ms per frame {mine:.3e} vs {best:.3e}, its MSE {} and its frame {} {best_id}'s (its MSE {:.2e} in {:.1} ms){outliers}; {why}: docs/techniques/lightcuts.md, \"The cluster's light\"",
+                    ratio(|k| k.mse),
+                    ratio(|k| k.ms),
+                    c.mse,
+                    c.ms
                 ));
             }
         }
@@ -745,7 +763,23 @@ mod tests {
         let mut cells = vec![vpl("vpl-lightcuts", 3.0, 1e-4, 9e-5), vpl("vpl-sst", 1.0, 2e-4, 1e-4), vpl("vpl-rtslc", 1.0, 5e-4, 4e-4)];
         cross_checks(&mut cells);
         let lc = &cells[0];
-        assert!(!lc.pass && lc.reasons.iter().any(|r| r.contains("behind vpl-sst") && r.contains("still behind")), "{:?}", lc.reasons);
+        assert!(
+            !lc.pass
+                && lc.reasons.iter().any(|r| r.contains("behind vpl-sst")
+                    && r.contains("still behind")
+                    && r.contains("its MSE 0.50× and its frame 3.00× vpl-sst's")
+                    && r.contains("(vpl-rtslc, on the same cuts, is behind it too)")),
+            "{:?}",
+            lc.reasons
+        );
+        // Behind vpl-rtslc: the reason names the two as level estimators.
+        let mut cells = vec![vpl("vpl-lightcuts", 1.1, 1e-4, 9e-5), vpl("vpl-rtslc", 1.0, 1e-4, 8e-5)];
+        cross_checks(&mut cells);
+        assert!(
+            cells[0].reasons.iter().any(|r| r.contains("its MSE 1.00× and its frame 1.10× vpl-rtslc's") && r.contains("level within")),
+            "{:?}",
+            cells[0].reasons
+        );
         // Behind only through a few pixels: the reason says so.
         let mut cells = vec![vpl("vpl-lightcuts", 1.0, 3e-4, 5e-5), vpl("vpl-sst", 1.0, 2e-4, 1e-4)];
         cross_checks(&mut cells);

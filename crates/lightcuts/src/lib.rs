@@ -117,6 +117,11 @@ pub struct LightcutsParams {
     /// on 12 scenes (docs/techniques/lightcuts.md, "The stop rule"): 0.1 lowers the RMSE
     /// against `vpl-exact` on 9 and the FLIP on all 12, at the same frame time.
     pub stop_ratio: f32,
+    /// `cluster_light`: how a stopped cluster lights the shaded point, `vpl` (ours, the default
+    /// of `vpl-lightcuts`: one of its VPLs picked ∝ intensity, unbiased) or `substitute` (the
+    /// thesis' §5.3 Gaussian point light; `profile=paper`, and `vpl-sst`'s default, whose
+    /// method the substitute is). See [`sample::ClusterLight`].
+    pub cluster_light: sample::ClusterLight,
     /// `half_res`: GI at half resolution + joint bilateral upsampling (thesis option; off).
     pub half_res: bool,
     /// `include_direct`: add the direct light (the thesis' final image); default true.
@@ -143,6 +148,7 @@ impl Default for LightcutsParams {
             block: 8,
             flatness: Flatness::default(),
             stop_ratio: DEFAULT_STOP_RATIO,
+            cluster_light: sample::ClusterLight::Vpl,
             half_res: false,
             include_direct: true,
             direct_samples: 16,
@@ -197,6 +203,14 @@ impl LightcutsParams {
             };
             let stop_default = if paper { f32::INFINITY } else { d.stop_ratio };
             p.stop_ratio = params.f32("stop_ratio", stop_default, 1e-6, f32::INFINITY)?;
+            let substitute_default = paper || variant == Variant::Sst;
+            p.cluster_light = match params
+                .choice("cluster_light", if substitute_default { "substitute" } else { "vpl" }, &["vpl", "substitute"])?
+                .as_str()
+            {
+                "vpl" => sample::ClusterLight::Vpl,
+                _ => sample::ClusterLight::Substitute,
+            };
             p.half_res = params.bool("half_res", d.half_res)?;
         }
         Ok(p)

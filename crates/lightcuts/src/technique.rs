@@ -65,12 +65,12 @@ impl VplTechnique {
             Variant::Lightcuts => (
                 "vpl-lightcuts",
                 Some("vpl-exact"),
-                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 stop_ratio=0.1 (ours: a flat cluster stops only where its box is under 0.1 × its distance; profile=paper: inf) and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
+                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 stop_ratio=0.1 (ours: a flat cluster stops only where its box is under 0.1 × its distance; profile=paper: inf), cluster_light=vpl (ours: a stopped cluster lights the point through one of its VPLs picked in proportion to its intensity, unbiased; profile=paper: substitute, the thesis' Gaussian point light) and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
             ),
             Variant::Sst => (
                 "vpl-sst",
                 Some("vpl-exact"),
-                "Stochastic Substitute Tree baseline (Tatzgern et al. 2020, as in Tavasszy 2021 §7.1): spp traversals from the root stopping at flat clusters (the same stop rule as vpl-lightcuts, stop_ratio included)",
+                "Stochastic Substitute Tree baseline (Tatzgern et al. 2020, as in Tavasszy 2021 §7.1): spp traversals from the root stopping at flat clusters (the same stop rule as vpl-lightcuts, stop_ratio included); a stopped cluster is its substitute Gaussian's point light (cluster_light=substitute, the method's own)",
             ),
             Variant::Rtslc => (
                 "vpl-rtslc",
@@ -217,6 +217,7 @@ impl Technique for VplTechnique {
                             clamp2,
                             similarity: sim,
                             stop_ratio: p.stop_ratio,
+                            cluster_light: p.cluster_light,
                         };
                         sampler.pixel(gx, gy, &s, &mut rng)
                     }

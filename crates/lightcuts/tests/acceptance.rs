@@ -4,7 +4,7 @@
 
 use glimpse_core::{Frame, Image, Rng, Vec2, Vec3, luminance};
 use glimpse_lightcuts::cut::{BlockCuts, Surface, build_cut, cmp_priority, completely_behind, mock_cut, stochastic_select, weight};
-use glimpse_lightcuts::sample::{Sampler, Strategy, brute_force, sample_point, traverse};
+use glimpse_lightcuts::sample::{ClusterLight, Sampler, Strategy, brute_force, sample_point, traverse};
 use glimpse_lightcuts::technique::block_cuts;
 use glimpse_lightcuts::tree::{bitonic_sort, sort_key, sort_vpls};
 use glimpse_lightcuts::upsample::{LowRes, upsample_pixel};
@@ -582,6 +582,7 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
         clamp2,
         similarity: vp.similarity,
         stop_ratio: f32::INFINITY,
+        cluster_light: ClusterLight::Substitute,
     };
     let est = |rounds: u32, seed: u64| -> Vec<Vec3> {
         pixels
@@ -622,6 +623,7 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
         clamp2: 1e-4,
         similarity: sim,
         stop_ratio: f32::INFINITY,
+        cluster_light: ClusterLight::Substitute,
     };
     let (b1, b4) =
         (rel_rmse(&mean_estimate(&sampler, &floor, fw, 100, 1), &truth), rel_rmse(&mean_estimate(&sampler, &floor, fw, 400, 1), &truth));
@@ -639,7 +641,21 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
     // the fixed bias of (c) shrinks.
     let near = Sampler { stop_ratio: glimpse_lightcuts::DEFAULT_STOP_RATIO, ..proposed };
     let d4 = rel_rmse(&mean_estimate(&near, &floor, fw, 400, 2), &truth);
+    // (e) Ours (the default): a stopped cluster lights the point through one of its VPLs picked
+    // ∝ intensity, so early termination, even under the thesis' rule, keeps the estimator
+    // unbiased: the error falls as 1/√M like (b)'s, with no floor.
+    let picked = Sampler { cluster_light: ClusterLight::Vpl, ..proposed };
+    let (e1, e4) =
+        (rel_rmse(&mean_estimate(&picked, &floor, fw, 100, 2), &truth), rel_rmse(&mean_estimate(&picked, &floor, fw, 400, 2), &truth));
+    let picked_bias: f64 = {
+        let m = mean_estimate(&picked, &floor, fw, 1600, 3);
+        m.iter().map(|v| luminance(*v) as f64).sum::<f64>() / truth.iter().map(|v| luminance(*v) as f64).sum::<f64>() - 1.0
+    };
     println!("floor, 8×8 blocks + blending, leaves: rel. RMSE {b1:.4} (M = 100) → {b4:.4} (M = 400), ratio {:.2}", b1 / b4);
+    println!(
+        "floor, early termination, clusters lit by a VPL picked ∝ intensity: rel. RMSE {e1:.4} → {e4:.4} (ratio {:.2}); image-sum bias {picked_bias:+.4} (M = 1600)",
+        e1 / e4
+    );
     println!(
         "floor, early termination (v_min 0.7, σ_max 0.3): rel. RMSE {c1:.4} → {c4:.4} (ratio {:.2}); image-sum bias {:+.4}",
         c1 / c4,
@@ -648,6 +664,10 @@ fn check_14_estimator_converges_to_the_brute_force_sum() {
     println!("floor, early termination with stop_ratio {}: rel. RMSE {d4:.4} (M = 400)", glimpse_lightcuts::DEFAULT_STOP_RATIO);
     assert!(b4 < 0.03 && b1 / b4 > 1.6);
     assert!(d4 < c4, "the receiver-relative stop should cut the early termination's error: {d4} vs {c4}");
+    assert!(
+        e1 / e4 > 1.6 && e4 < c4 && picked_bias.abs() < 0.01,
+        "picking a cluster's VPL should be unbiased: {e1} → {e4}, bias {picked_bias}"
+    );
 }
 
 #[test]
