@@ -65,7 +65,7 @@ impl VplTechnique {
             Variant::Lightcuts => (
                 "vpl-lightcuts",
                 Some("vpl-exact"),
-                "stochastic light cuts over an SST (Tavasszy 2021): shallow cuts per 8x8 block, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=8 v_min=0.7 sigma_max=0.3 stop_ratio=0.1 (ours: a flat cluster stops only where its box is under 0.1 × its distance; profile=paper: inf), cluster_light=vpl (ours: a stopped cluster lights the point through one of its VPLs picked in proportion to its intensity, unbiased; profile=paper: substitute, the thesis' Gaussian point light) and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
+                "stochastic light cuts over an SST (Tavasszy 2021): shallow light cuts, blending, mock cuts, traversal from cut nodes stopping at flat clusters; spp = samples per pixel (thesis 32), block=1 (ours: a cut per pixel; profile=paper: 8, the thesis' 8x8 blocks) v_min=0.7 sigma_max=0.3 stop_ratio=0.1 (ours: a flat cluster stops only where its box is under 0.1 × its distance; profile=paper: inf), cluster_light=vpl (ours: a stopped cluster lights the point through one of its VPLs picked in proportion to its intensity, unbiased; profile=paper: substitute, the thesis' Gaussian point light) and pvpl_radius=auto (in units of the scene's diagonal; profile=paper: scene units) half_res",
             ),
             Variant::Sst => (
                 "vpl-sst",
