@@ -12,7 +12,7 @@
 //! shades like a VPL: colour · cos_x · cos_y / (π · max(d², clamp²)) with the node's mean normal
 //! (the VPL-side cosine of a Lambertian emitter), the same formula `vpl-exact` uses per VPL.
 
-use crate::cut::{BlockCuts, Surface, mock_cut, stochastic_select, weight};
+use crate::cut::{BlockCuts, Surface, completely_behind, mock_cut, stochastic_select, weight};
 use crate::tree::{Sst, SstNode};
 use crate::vpl::Similarity;
 use glimpse_core::ray::offset_origin;
@@ -86,21 +86,25 @@ pub enum ClusterLight {
     /// on the lit wall), which is 77 % of its MSE there.
     Substitute,
     /// Ours: one of the cluster's VPLs, picked by descending its subtree with probability ∝ each
-    /// child's intensity (so ∝ the VPL's intensity), shaded exactly and divided by that
-    /// probability ([`pick_vpl`]). Unbiased for the cluster's sum; the descent reads two node
-    /// intensities per level, no box cosines.
+    /// child's intensity, skipping children entirely behind the shaded point's plane, shaded
+    /// exactly and divided by that probability ([`pick_vpl`]). Unbiased for the cluster's sum;
+    /// the descent reads two node intensities and tests 16 box corners per level, no box cosines.
     Vpl,
 }
 
 /// Below a stopped cluster `node` reached with path probability `p` (ours, [`ClusterLight::Vpl`]):
-/// descend to a leaf, at each level choosing a child with probability ∝ its intensity, so that
-/// a leaf is reached with probability I_leaf / I_node. Returns the leaf, the path probability
-/// including the descent, and the levels descended. `None` when the cluster has no intensity.
-pub fn pick_vpl(tree: &Sst, node: u32, p: f32, rng: &mut Rng) -> Option<(u32, f32, u32)> {
+/// descend to a leaf, at each level choosing a child with probability ∝ its intensity, or 0 when
+/// its box is entirely behind `x`'s plane (its VPLs cannot light `x`, so skipping it loses
+/// nothing; without this test the light cuts' MSE on `thin-leaves` was 8 % above RTSLC's). In
+/// front of the plane a leaf is reached with probability I_leaf / I_node. Returns the leaf, the
+/// path probability including the descent, and the levels descended. `None` when no VPL of the
+/// cluster with intensity is in front.
+pub fn pick_vpl(tree: &Sst, node: u32, p: f32, x: &Surface, rng: &mut Rng) -> Option<(u32, f32, u32)> {
     let (mut node, mut p, mut steps) = (node, p, 0u32);
+    let share = |n: &SstNode| if completely_behind(n, x) { 0.0 } else { n.intensity() };
     while !tree.is_leaf(node) {
-        let il = tree.nodes[2 * node as usize].intensity();
-        let ir = tree.nodes[2 * node as usize + 1].intensity();
+        let il = share(&tree.nodes[2 * node as usize]);
+        let ir = share(&tree.nodes[2 * node as usize + 1]);
         if il + ir <= 0.0 {
             return None;
         }
@@ -221,7 +225,7 @@ impl Sampler<'_> {
             return Vec3::ZERO;
         };
         if self.cluster_light == ClusterLight::Vpl && !self.tree.is_leaf(node) {
-            let Some((leaf, p_leaf, steps)) = pick_vpl(self.tree, node, p, rng) else {
+            let Some((leaf, p_leaf, steps)) = pick_vpl(self.tree, node, p, x, rng) else {
                 return Vec3::ZERO;
             };
             (node, p) = (leaf, p_leaf);
@@ -318,10 +322,11 @@ mod tests {
         let tree = Sst { nodes, leaves: 8 };
         let total = tree.nodes[1].intensity();
         let mut rng = Rng::new(3, 0);
+        let below = Surface { pos: Vec3::new(0.0, -1.0, 0.0), normal: Vec3::Y };
         let mut hits = [0u32; 8];
         let rounds = 80_000;
         for _ in 0..rounds {
-            let (leaf, p, steps) = pick_vpl(&tree, 1, 0.5, &mut rng).expect("the root has intensity");
+            let (leaf, p, steps) = pick_vpl(&tree, 1, 0.5, &below, &mut rng).expect("the root has intensity");
             assert_eq!(steps, 3);
             let share = tree.nodes[leaf as usize].intensity() / total;
             assert!((p - 0.5 * share).abs() < 1e-6, "the path probability is the leaf's share: {p} vs {}", 0.5 * share);
@@ -334,7 +339,21 @@ mod tests {
         }
         let mut dark = tree.clone();
         dark.nodes.iter_mut().for_each(|n| n.color = Vec3::ZERO);
-        assert_eq!(pick_vpl(&dark, 1, 1.0, &mut rng), None, "a cluster without light has no VPL to pick");
+        assert_eq!(pick_vpl(&dark, 1, 1.0, &below, &mut rng), None, "a cluster without light has no VPL to pick");
+        // Leaves 4..8 moved behind the receiver's plane: never picked, the others renormalized.
+        let mut split = tree.clone();
+        for i in [3usize, 6, 7, 12, 13, 14, 15] {
+            split.nodes[i].bb_min.y = -2.0;
+            split.nodes[i].bb_max.y = -1.5;
+        }
+        let front: f32 = colors[..4].iter().sum();
+        for _ in 0..1000 {
+            let (leaf, p, _) = pick_vpl(&split, 1, 1.0, &below, &mut rng).expect("leaves in front have light");
+            assert!(leaf < 12, "leaf {leaf} is behind the plane");
+            assert!((p - colors[leaf as usize - 8] / front).abs() < 1e-6);
+        }
+        let above = Surface { pos: Vec3::new(0.0, 1.0, 0.0), normal: Vec3::Y };
+        assert_eq!(pick_vpl(&tree, 1, 1.0, &above, &mut rng), None, "every VPL behind the plane");
     }
 
     #[test]
