@@ -409,11 +409,10 @@ fn cross_checks(cells: &mut [Cell]) {
     let get = |cells: &[Cell], id: &str, f: fn(&Cell) -> f64| cells.iter().find(|c| c.technique == id).map(f);
     let roma_df = (get(cells, "ao-roma", |c| c.flip), get(cells, "ao-df", |c| c.flip));
     let cost = |c: &Cell| c.mse * c.ms;
-    let others = ["vpl-sst", "vpl-rtslc"];
-    let vpl: Vec<(&str, f64)> = others.iter().filter_map(|&id| get(cells, id, cost).map(|v| (id, v))).collect();
     let cost_trimmed = |c: &Cell| c.mse_trimmed.map(|m| m * c.ms);
-    let vpl_trimmed = cells.iter().filter(|c| others.contains(&c.technique.as_str())).filter_map(cost_trimmed).reduce(f64::min);
-    let others_cells: Vec<Cell> = cells.iter().filter(|c| others.contains(&c.technique.as_str())).cloned().collect();
+    // The other VPL methods, copied out so the light cuts' cell can be changed beside them.
+    let others: Vec<Cell> = cells.iter().filter(|c| ["vpl-sst", "vpl-rtslc"].contains(&c.technique.as_str())).cloned().collect();
+    let vpl_trimmed = others.iter().filter_map(cost_trimmed).reduce(f64::min);
     for c in cells.iter_mut() {
         if let ("ao-roma", (Some(roma), Some(df))) = (c.technique.as_str(), roma_df) {
             let pass = roma < df;
@@ -423,10 +422,9 @@ fn cross_checks(cells: &mut [Cell]) {
             }
         }
         if c.technique == "vpl-lightcuts"
-            && let Some(&(best_id, best)) = vpl.iter().min_by(|a, b| a.1.total_cmp(&b.1))
+            && let Some(best_cell) = others.iter().min_by(|a, b| cost(a).total_cmp(&cost(b)))
         {
-            let mine = cost(c);
-            let best_cell = others_cells.iter().find(|k| k.technique == best_id);
+            let (best_id, best, mine) = (best_cell.technique.as_str(), cost(best_cell), cost(c));
             let pass = mine < best;
             c.checks.push(Check { what: format!("MSE × ms below the other VPL methods' best ({best_id} {best:.3e})"), pass });
             if !pass {
@@ -446,16 +444,16 @@ fn cross_checks(cells: &mut [Cell]) {
                     }
                     _ => String::new(),
                 };
-                let ratio = |f: fn(&Cell) -> f64| match (f(c), best_cell.map(f)) {
-                    (m, Some(b)) if b > 0.0 => format!("{:.2}×", m / b),
-                    _ => "?".to_owned(),
+                let ratio = |f: fn(&Cell) -> f64| {
+                    let b = f(best_cell);
+                    if b > 0.0 { format!("{:.2}×", f(c) / b) } else { "?".to_owned() }
                 };
                 let why = if best_id == "vpl-rtslc" {
                     "its estimator is vpl-rtslc's but below a stopped cluster, where it picks a VPL by intensity (cheaper steps), so their MSEs agree to about 1 % and the frame-time noise decides between them".to_owned()
                 } else {
-                    let rtslc_too = vpl.iter().any(|&(id, v)| id == "vpl-rtslc" && v > best);
+                    let rtslc_too = others.iter().any(|k| k.technique == "vpl-rtslc" && cost(k) > best);
                     format!(
-                        "{best_id}'s traversals from the root sample this scene better than the 8×8-block cuts{}",
+                        "{best_id}'s traversals from the root sample this scene better than the light cuts{}",
                         if rtslc_too { " (vpl-rtslc, on the same cuts, is behind it too)" } else { "" }
                     )
                 };

@@ -40,14 +40,22 @@ pub struct Traversal {
 /// inner node that [`stops_at`] accepts (`None`: leaves only, RTSLC); otherwise go left with
 /// p = w_l/(w_l+w_r) (Eq. 5.4). Both weights 0: no sample.
 pub fn traverse(tree: &Sst, start: u32, x: &Surface, stop: Option<f32>, clamp2: f32, rng: &mut Rng) -> Traversal {
-    let (mut node, mut p, mut steps) = (start, 1.0f32, 0u32);
+    let stops = |node: u32| stop.is_some_and(|r| stops_at(&tree.nodes[node as usize], x, r));
+    descend(tree, start, 1.0, rng, |n| weight(n, x, clamp2), stops)
+}
+
+/// The descent [`traverse`] and [`pick_vpl`] share: from `start`, reached with path probability
+/// `p`, until a leaf or a node `stops` accepts, going left with probability w_l/(w_l+w_r) of the
+/// children's `weight`s (both 0: no node). One random number per level.
+fn descend(tree: &Sst, start: u32, p: f32, rng: &mut Rng, weight: impl Fn(&SstNode) -> f32, stops: impl Fn(u32) -> bool) -> Traversal {
+    let (mut node, mut p, mut steps) = (start, p, 0u32);
     loop {
-        if tree.is_leaf(node) || stop.is_some_and(|r| stops_at(&tree.nodes[node as usize], x, r)) {
+        if tree.is_leaf(node) || stops(node) {
             return Traversal { node: Some((node, p)), steps };
         }
         let (l, r) = (2 * node, 2 * node + 1);
-        let wl = weight(&tree.nodes[l as usize], x, clamp2);
-        let wr = weight(&tree.nodes[r as usize], x, clamp2);
+        let wl = weight(&tree.nodes[l as usize]);
+        let wr = weight(&tree.nodes[r as usize]);
         if wl + wr <= 0.0 {
             return Traversal { node: None, steps };
         }
@@ -100,25 +108,9 @@ pub enum ClusterLight {
 /// path probability including the descent, and the levels descended. `None` when no VPL of the
 /// cluster with intensity is in front.
 pub fn pick_vpl(tree: &Sst, node: u32, p: f32, x: &Surface, rng: &mut Rng) -> Option<(u32, f32, u32)> {
-    let (mut node, mut p, mut steps) = (node, p, 0u32);
     let share = |n: &SstNode| if completely_behind(n, x) { 0.0 } else { n.intensity() };
-    while !tree.is_leaf(node) {
-        let il = share(&tree.nodes[2 * node as usize]);
-        let ir = share(&tree.nodes[2 * node as usize + 1]);
-        if il + ir <= 0.0 {
-            return None;
-        }
-        let pl = il / (il + ir);
-        steps += 1;
-        if rng.next_f32() < pl {
-            node *= 2;
-            p *= pl;
-        } else {
-            node = 2 * node + 1;
-            p *= 1.0 - pl;
-        }
-    }
-    Some((node, p, steps))
+    let t = descend(tree, node, p, rng, share, |_| false);
+    t.node.map(|(leaf, p)| (leaf, p, t.steps))
 }
 
 /// A standard normal pair (Box–Muller).
@@ -209,8 +201,6 @@ pub struct PixelCost {
     pub rays: u64,
     /// Traversal steps (Eq. 5.4: two child weights each), the thesis' Fig. 7.2 count.
     pub steps: u64,
-    /// Levels descended below stopped clusters by [`pick_vpl`] (two intensities each).
-    pub pick_steps: u64,
     pub samples: u64,
     pub mock: bool,
 }
@@ -225,11 +215,12 @@ impl Sampler<'_> {
             return Vec3::ZERO;
         };
         if self.cluster_light == ClusterLight::Vpl && !self.tree.is_leaf(node) {
-            let Some((leaf, p_leaf, steps)) = pick_vpl(self.tree, node, p, x, rng) else {
+            // The levels descended here are not counted in `cost.steps` (Fig. 7.2 counts Eq.
+            // 5.4 steps; these read two intensities each).
+            let Some((leaf, p_leaf, _)) = pick_vpl(self.tree, node, p, x, rng) else {
                 return Vec3::ZERO;
             };
             (node, p) = (leaf, p_leaf);
-            cost.pick_steps += steps as u64;
         }
         let c = &self.tree.nodes[node as usize];
         let y = sample_point(c, rng);
