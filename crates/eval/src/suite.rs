@@ -311,9 +311,15 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         ));
     }
     if let (Some(eps), Some(cell)) = (m("eps_s_pct").filter(|&e| run.technique == "lights-voxarray" && e > 3.0), m("cell_m")) {
-        reasons.push(format!(
-            "ε_s {eps:.1} % with the grid at its 128³ maximum: cells of {cell:.3} m; resolution-bound (the wrong decisions are false shadows along long segments that pass within a cell of geometry and occluders missed within the 2.5-cell start offset; 64³ → 128³ cut them by 40 %: docs/suite.md)"
-        ));
+        reasons.push(match m("refined_pct") {
+            // Refined: no false shadow is left, only occluders the array misses.
+            Some(share) => format!(
+                "ε_s {eps:.1} % after exact rays confirmed its occluded answers ({share:.0} % of the decisions): occluders the array misses, within the start offset or thinner than its cells of {cell:.3} m (128³, the maximum)"
+            ),
+            None => format!(
+                "ε_s {eps:.1} % with the grid at its 128³ maximum: cells of {cell:.3} m; resolution-bound (the wrong decisions are false shadows along long segments that pass within a cell of geometry and occluders missed within the 2.5-cell start offset; 64³ → 128³ cut them by 40 %: docs/suite.md; refine=exact removes the false shadows)"
+            ),
+        });
     }
     // An MSE target below the converged reference's own noise cannot be judged against it.
     if let (Some(mse), Some(noise)) =
@@ -385,7 +391,7 @@ fn black_where_lit_reason(technique: &str, f: PixelFaults) -> String {
 /// if both costs scaled with the pixels (a build does not), or its shading itself is slower.
 fn slower_reason(run: &Run, reference_ms: f64, pixels: u64) -> String {
     let (prepare, render) = (run.ms.get("prepare").copied().unwrap_or(0.0), run.ms.get("render").copied().unwrap_or(0.0));
-    if render < reference_ms {
+    let why = if render < reference_ms {
         let even = pixels as f64 * prepare / (reference_ms - render);
         format!(
             "its build does not pay off at {pixels} pixels: prepare {prepare:.1} ms + shading {render:.1} ms vs the reference's {reference_ms:.1} ms (shading alone {:.1}× faster; break-even near {:.0}K pixels)",
@@ -394,6 +400,13 @@ fn slower_reason(run: &Run, reference_ms: f64, pixels: u64) -> String {
         )
     } else {
         format!("its shading alone is slower: {render:.1} ms (+ prepare {prepare:.1} ms) vs the reference's {reference_ms:.1} ms")
+    };
+    // `lights-voxarray` with `refine`: its shading includes exact rays.
+    match run.metrics.get("refined_pct") {
+        Some(share) => {
+            format!("{why}; its shading traces the exact ray for the {share:.0} % of decisions the array calls occluded (refine)")
+        }
+        None => why,
     }
 }
 
@@ -798,6 +811,12 @@ mod tests {
         assert!(!cells[0].pass && cells[0].reasons.iter().any(|r| r.contains("0.3000") && r.contains("0.2000")), "{:?}", cells[0].reasons);
         let c = cell("s", &run("lights-voxarray", 0.0, 1.0, 100.0, &[("eps_s_pct", 9.8), ("cell_m", 0.133)]), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("ε_s 9.8 %") && r.contains("0.133 m")), "{:?}", c.reasons);
+        // Refined (`refine`): the reason says the rest are missed occluders, and a slower
+        // shading names its exact-ray share.
+        let refined = [("eps_s_pct", 3.4), ("cell_m", 0.133), ("refined_pct", 57.0)];
+        let c = cell("s", &run("lights-voxarray", 0.0, 5.0, 4.0, &refined), "s", 6000, 4, 64);
+        assert!(c.reasons.iter().any(|r| r.contains("ε_s 3.4 % after exact rays") && r.contains("misses")), "{:?}", c.reasons);
+        assert!(c.reasons.iter().any(|r| r.contains("shading alone is slower") && r.contains("57 % of decisions")), "{:?}", c.reasons);
         let dvf = [("map_noise", 0.05), ("rmse_same_samples", 0.02), ("points", 10_000.0), ("grid", 20.0)];
         let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &dvf), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("RMSE 0.0200") && r.contains("10000 points, the floor")), "{:?}", c.reasons);

@@ -32,6 +32,10 @@ use std::sync::Arc;
 /// Shadow segments per GPU batch the pixel blocks aim at.
 const SEGMENTS_PER_BATCH: usize = 1 << 21;
 
+/// A light that reaches a pixel: irradiance × cosine, the array's segment, and the sample whose
+/// exact ray `refine` traces.
+type LitSample = (Vec3, (Vec3, Vec3), direct::PunctualSample);
+
 fn gpu_error(e: impl std::fmt::Display) -> RenderError {
     RenderError::Unsupported { technique: "lights-voxarray".into(), message: format!("on the GPU: {e}") }
 }
@@ -86,6 +90,7 @@ impl Technique for GpuLightsVoxArray {
         let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.cpu.lights as usize)];
         let block = (SEGMENTS_PER_BATCH / lights.len().max(1)).max(1);
         let gpu = &self.gpu;
+        let refine = self.cpu.refine;
         let mut times = Vec::new();
         let shade = || -> Result<u64, RenderError> {
             let mut decisions = 0u64;
@@ -93,16 +98,24 @@ impl Technique for GpuLightsVoxArray {
                 let first = b * block;
                 // Per pixel, the lights that can reach it (irradiance × cosine) and their
                 // segments, in the scene's order: the CPU technique's samples.
-                let samples: Vec<Vec<(Vec3, (Vec3, Vec3))>> = (first..first + pixels.len())
+                let samples: Vec<Vec<LitSample>> = (first..first + pixels.len())
                     .into_par_iter()
                     .map(|i| {
                         let Some(s) = Shading::from_gbuffer(gbuffer, i) else { return Vec::new() };
-                        lit_samples(s, lights).map(|(ps, cos)| (ps.irradiance * cos, structure.surface_segment(&ps, s.normal))).collect()
+                        lit_samples(s, lights)
+                            .map(|(ps, cos)| (ps.irradiance * cos, structure.surface_segment(&ps, s.normal), ps))
+                            .collect()
                     })
                     .collect();
-                let segments: Vec<(Vec3, Vec3)> = samples.iter().flatten().map(|(_, seg)| *seg).collect();
-                let occluded =
+                let segments: Vec<(Vec3, Vec3)> = samples.iter().flatten().map(|(_, seg, _)| *seg).collect();
+                let mut occluded =
                     if segments.is_empty() { Vec::new() } else { gpu_structure.occluded_segments(gpu, &segments).map_err(gpu_error)? };
+                if refine {
+                    // `refine`: the GPU's occluded answers confirmed by the CPU's exact tracer
+                    // (the CPU technique's rule; no exact GPU tracer is wired in here).
+                    let flat: Vec<&direct::PunctualSample> = samples.iter().flatten().map(|(_, _, ps)| ps).collect();
+                    occluded.par_iter_mut().zip(flat).for_each(|(o, ps)| *o = *o && ctx.tracer.occluded(&ps.shadow, ps.t_max));
+                }
                 times.append(&mut gpu_structure.take_times());
                 decisions += segments.len() as u64;
                 let mut offset = 0;
@@ -111,7 +124,7 @@ impl Technique for GpuLightsVoxArray {
                     *px = match Shading::from_gbuffer(gbuffer, i) {
                         Some(s) => {
                             let mut e = Vec3::ZERO;
-                            for ((irradiance, _), &o) in pixel_samples.iter().zip(&occluded[offset..]) {
+                            for ((irradiance, _, _), &o) in pixel_samples.iter().zip(&occluded[offset..]) {
                                 if !o {
                                     e += *irradiance;
                                 }
@@ -131,7 +144,7 @@ impl Technique for GpuLightsVoxArray {
         if self.cpu.epsilon {
             // The CPU structure's decisions, which the GPU's equal (docs/gpu.md, parity).
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
-                structure.occluded_from_surface(ps, s.normal)
+                structure.occluded_from_surface(ps, s.normal) && (!refine || ctx.tracer.occluded(&ps.shadow, ps.t_max))
             });
             stats.metrics = e.to_metrics();
         }

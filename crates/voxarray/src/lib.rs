@@ -93,6 +93,16 @@ impl Default for VoxArrayParams {
 pub const DEFAULT_CLUSTER_CELLS: f32 = 0.25;
 
 impl VoxArrayParams {
+    /// The defaults under `refine` ([`crate::technique::REFINE_BELOW_LIGHTS`]): with false shadows removed by
+    /// exact rays, smaller start offsets (normal offset 0.75 cells, bias 0.5 at both ends) trade
+    /// them for fewer missed occluders. Measured (`--example error_sources`, 96 × 64, refined
+    /// |ε_s|): `sponza-interior` 5.64 % at the paper-side defaults (1.5 / 1 / 1) → 1.96 %;
+    /// `million-triangles` 4.90 % → 2.17 %; 0.5 / 0.5 gives 1.49 % on Sponza for 63 % of the
+    /// decisions traced instead of 57 %.
+    pub fn refined() -> Self {
+        Self { normal_offset_cells: 0.75, bias_start_cells: 0.5, bias_end_cells: 0.5, ..Self::default() }
+    }
+
     /// The uncompressed variant of the defaults.
     pub fn uncompressed() -> Self {
         Self { compress: None, ..Self::default() }

@@ -32,7 +32,7 @@ use crate::{Array, extent8};
 use glimpse_core::Vec3;
 use glimpse_render::direct::{self, Shading};
 use glimpse_scene::{LightKind, WorldLight};
-use glimpse_trace::GBuffer;
+use glimpse_trace::{GBuffer, Visibility};
 
 /// Per-thread buffers of one tile, reused from tile to tile.
 #[derive(Default)]
@@ -69,6 +69,8 @@ pub struct Tile {
     queries: usize,
     /// Hit pixels (slots before the padding).
     hits: usize,
+    /// Occluded answers re-tested by an exact ray (`refine`), summed over the tile's lights.
+    pub confirmed: u64,
 }
 
 impl Tile {
@@ -121,7 +123,9 @@ impl Tile {
 
     /// Adds `light`'s unoccluded Lambertian term to every hit pixel of the tile; returns the
     /// shadow decisions made (the pixels that face the light with some irradiance).
-    pub fn shade_light<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, simd: bool) -> u64 {
+    /// `confirm` (`refine`, [`crate::technique`]): an occluded answer stands only if this exact
+    /// tracer agrees on `lights-exact`'s own shadow ray.
+    pub fn shade_light<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, simd: bool, confirm: Option<&dyn Visibility>) -> u64 {
         let simd = simd && extent8::avx2_available();
         let mut decisions = 0u64;
         // The facing test, the contributions and the packed segments, group by group.
@@ -167,9 +171,15 @@ impl Tile {
             }
         }
         // Passes 2 and 3: every row load of the tile × light in flight together.
-        let (visible, slots, n) = (&mut self.visible, &self.q_slot, self.queries);
+        let (visible, slots, n, shading, confirmed) = (&mut self.visible, &self.q_slot, self.queries, &self.shading, &mut self.confirmed);
         array.occluded_rows(&mut self.q_row[..n], &self.q_s[..n], &self.q_e[..n], |q| {
             let slot = slots[q] as usize;
+            if let Some(exact) = confirm {
+                *confirmed += 1;
+                if !crate::technique::exactly_occluded(exact, light, &shading[slot]) {
+                    return;
+                }
+            }
             visible[slot / LANES] &= !(1 << (slot % LANES));
         });
         // The Lambertian sum.

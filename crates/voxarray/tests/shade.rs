@@ -15,14 +15,17 @@ fn tiled_simd_image_equals_scalar_image() {
     scene.lights.push(Light::directional(Vec3::new(0.4, -1.0, 0.3).normalize(), Vec3::splat(0.5)));
     let mut compared = 0usize;
     // 45×29: tiles cut at the right and bottom edges.
-    for (compress, (w, h)) in [(true, (48, 36)), (false, (48, 36)), (true, (45, 29))] {
+    // `refine` (66 lights: on by default) confirms occluded answers with exact rays in both paths.
+    for (compress, (w, h), refine) in
+        [(true, (48, 36), "auto"), (false, (48, 36), "auto"), (true, (45, 29), "auto"), (true, (48, 36), "none")]
+    {
         let ctx = FrameContext::new(&scene, 0.0, w, h);
         let g = ctx.gbuffer();
         let render = |tiled: bool, simd: bool| {
             let p = format!("compress={compress}");
-            let (t, s) = (format!("tiled={tiled}"), format!("simd={simd}"));
+            let (t, s, r) = (format!("tiled={tiled}"), format!("simd={simd}"), format!("refine={refine}"));
             let params =
-                Params::parse(&["resolution=32", "directions=8", "dictionary=4096", "epsilon=false", "disk_cache=false", &p, &t, &s])
+                Params::parse(&["resolution=32", "directions=8", "dictionary=4096", "epsilon=false", "disk_cache=false", &p, &t, &s, &r])
                     .unwrap();
             let mut tech = LightsVoxArray::new(&scene, &Settings::default(), &params).unwrap();
             params.finish("lights-voxarray").unwrap();
@@ -39,7 +42,7 @@ fn tiled_simd_image_equals_scalar_image() {
             let bits = |v: &Vec3| v.to_array().map(f32::to_bits);
             let differ = img.pixels.iter().zip(&reference.pixels).filter(|(a, b)| bits(a) != bits(b)).count();
             println!(
-                "{w}x{h} compress={compress} tiled={tiled} simd={simd} (AVX2 on this CPU: {}): {} pixels compared, {differ} differ; {rays} vs {decisions} shadow decisions",
+                "{w}x{h} compress={compress} refine={refine} tiled={tiled} simd={simd} (AVX2 on this CPU: {}): {} pixels compared, {differ} differ; {rays} vs {decisions} shadow decisions",
                 glimpse_voxarray::extent8::avx2_available(),
                 img.pixels.len()
             );
