@@ -295,7 +295,7 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
             format!("; {} itself at {spp} spp has {n:.0} such pixels against its {ref_spp}-spp render", run.reference)
         });
         reasons.push(format!(
-            "{} of {} lit pixels ({:.2} %) are over 2× pt (3 × 3 means): glints of the cached radiance, or the {spp}-spp noise of traced sharp lobes{noise}",
+            "{} of {} lit pixels ({:.2} %) are over 2× pt (3 × 3 means): glints of the cached radiance, or the {spp}-spp noise of traced lobes (sharp ones, and pixels beyond the cache: trace_far){noise}",
             faults.over_twice,
             faults.lit,
             100.0 * faults.over_twice as f64 / faults.lit.max(1) as f64

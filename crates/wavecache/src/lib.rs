@@ -77,6 +77,10 @@ pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
 /// (`cargo run --release -p glimpse-wavecache --example path_length -- SCENE…`).
 pub const DEFAULT_RAY_BUDGET: u64 = 280_000_000;
 
+/// The default `trace_far`, in r_max (chosen from the measurements in docs/techniques/wavecache.md,
+/// "Far points").
+pub const DEFAULT_TRACE_FAR: f32 = 4.0;
+
 /// Every parameter of the technique (`--set key=value`). Paper values in the comments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct WavecacheParams {
@@ -135,6 +139,14 @@ pub struct WavecacheParams {
     /// orientation anywhere in the mesh: on `sponza-interior`, points 10 m away in the sky's
     /// light (67 pixels over 2× `pt`). 8: see docs/techniques/wavecache.md ("The query").
     pub search_radius: f32,
+    /// `trace_far` (ours, in units of the mesh's r_max; `inf` = never, `profile=paper`): a shaded
+    /// point whose chosen cache point lies farther than this, or that finds none, is shaded by
+    /// tracing its lobe as a sharp lobe is (`Runtime::traced_sample`, at the pixel's spp) rather
+    /// than from a point that cached another place's light. The cache's points follow area, so
+    /// a surface with no point of its own orientation near (Sponza's ledges and undersides)
+    /// otherwise reads one several r_max away: black where lit, or over 2× `pt`. See
+    /// docs/techniques/wavecache.md ("Far points").
+    pub trace_far: f32,
     /// Quadtree layers traversed in the product (0: all).
     pub layers: u32,
     /// Roughness below which a surface is a mirror (paper 0.1).
@@ -197,6 +209,7 @@ impl Default for WavecacheParams {
             normal_weight: 1.0,
             normal_cutoff_deg: 30.0,
             search_radius: 8.0,
+            trace_far: DEFAULT_TRACE_FAR,
             layers: 0,
             mirror_roughness: 0.1,
             mirror_depth: 4,
@@ -228,6 +241,7 @@ impl WavecacheParams {
             trace_sharp: false,
             sharp_texels: 1.0,
             search_radius: f32::INFINITY,
+            trace_far: f32::INFINITY,
             ..Self::default()
         }
     }
@@ -247,6 +261,7 @@ impl WavecacheParams {
             normal_weight: d.normal_weight,
             normal_cutoff_deg: d.normal_cutoff_deg,
             search_radius: d.search_radius,
+            trace_far: d.trace_far,
             layers: d.layers,
             wo_frame: d.wo_frame,
             mirror_depth: d.mirror_depth,
@@ -302,6 +317,7 @@ impl WavecacheParams {
             normal_weight: params.f32("normal_weight", base.normal_weight, 0.0, 1e6)?,
             normal_cutoff_deg: params.f32("normal_cutoff_deg", base.normal_cutoff_deg, 0.0, 180.0)?,
             search_radius: params.f32("search_radius", base.search_radius, 0.0, f32::INFINITY)?,
+            trace_far: params.f32("trace_far", base.trace_far, 0.0, f32::INFINITY)?,
             layers: params.u32("layers", base.layers, 0, 32)?,
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,

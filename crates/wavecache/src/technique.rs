@@ -37,6 +37,7 @@ use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Techniq
 use glimpse_scene::Scene;
 use glimpse_trace::{GBuffer, SurfacePoint};
 use std::f32::consts::PI;
+use std::sync::atomic::{AtomicU64, Ordering};
 
 pub struct Wavecache {
     pub params: WavecacheParams,
@@ -333,8 +334,28 @@ impl<'a> Runtime<'a> {
         sum.max(Vec3::ZERO)
     }
 
+    /// The cache point `s` reads seen from `wo` (`None` for a mirror or where none is found),
+    /// and whether it is too far to stand for `s`'s light: none found, or farther than
+    /// `trace_far` × its mesh's r_max (then `shade` traces instead).
+    pub fn point_for(&self, s: &ShadePoint, wo: Vec3) -> (Option<&'a CachePoint>, bool) {
+        if self.classes.get(s.material as usize).is_none_or(|c| *c == Class::Mirror) {
+            return (None, false);
+        }
+        let point = self.lookup(s, s.facing_normal(wo));
+        let far = match (point, self.cache.meshes.get(s.instance as usize)) {
+            (Some(p), Some(mc)) => (Vec3::from(p.position) - s.position).length() > self.params.trace_far * mc.r_max,
+            _ => self.params.trace_far.is_finite(),
+        };
+        (point, far)
+    }
+
     /// Cached part (Eq. 19/20) at `s` seen from `wo`.
     pub fn cached(&self, s: &ShadePoint, wo: Vec3) -> Vec3 {
+        self.cached_from(s, wo, self.point_for(s, wo).0)
+    }
+
+    /// Eq. 19/20 at `s` seen from `wo`, from cache point `point` ([`Self::point_for`]'s).
+    fn cached_from(&self, s: &ShadePoint, wo: Vec3, point: Option<&CachePoint>) -> Vec3 {
         let Some(class) = self.classes.get(s.material as usize) else {
             return Vec3::ZERO;
         };
@@ -342,7 +363,7 @@ impl<'a> Runtime<'a> {
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
-                let Some(p) = self.lookup(s, ns) else {
+                let Some(p) = point else {
                     return Vec3::ZERO;
                 };
                 let e = self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO);
@@ -352,7 +373,7 @@ impl<'a> Runtime<'a> {
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let Some(p) = self.lookup(s, ns) else {
+                let Some(p) = point else {
                     return Vec3::ZERO;
                 };
                 let np = Vec3::from(p.shading_normal);
@@ -413,7 +434,17 @@ impl<'a> Runtime<'a> {
             rays += r;
             l
         } else {
-            self.cached(s, wo)
+            // A cache point too far holds another place's light: trace, as a sharp lobe. At the
+            // pixel only: a traced sample's hit reads the cache whatever its distance (a chain
+            // of far hits would become a path tracer).
+            let (point, far) = self.point_for(s, wo);
+            if far && depth == 0 && depth + 1 < self.params.mirror_depth {
+                let (l, r) = self.traced_sample(s, wo, depth, rng);
+                rays += r;
+                l
+            } else {
+                self.cached_from(s, wo, point)
+            }
         };
         let base = d + indirect;
         let gamma = self.frame.scene.materials[s.material as usize].clearcoat;
@@ -561,13 +592,20 @@ impl Technique for Wavecache {
         }
         let mut stats = Stats { memory_bytes: cache.memory_bytes(), ..Default::default() };
         let rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
+        let far_pixels = AtomicU64::new(0);
         stats.rays = stats.time("shade", || {
             let spp = self.settings.spp.max(1);
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng: &mut Rng| {
                 let p = ShadePoint::at_pixel(gbuffer, i);
-                // The cache is read deterministically; only a traced (sharp) lobe draws random
-                // numbers, so only it takes the pixel's `spp` samples.
-                let samples = if rt.traced.get(p.material as usize).copied().unwrap_or(false) { spp } else { 1 };
+                // The cache is read deterministically; only a traced lobe (sharp, or beyond the
+                // cache: `trace_far`) draws random numbers, so only it takes the pixel's `spp`
+                // samples.
+                let sharp = rt.traced.get(p.material as usize).copied().unwrap_or(false);
+                let far = !sharp && rt.point_for(&p, -gbuffer.view_dir[i]).1;
+                if far {
+                    far_pixels.fetch_add(1, Ordering::Relaxed);
+                }
+                let samples = if sharp || far { spp } else { 1 };
                 let (mut sum, mut rays) = (Vec3::ZERO, 0);
                 for _ in 0..samples {
                     let (l, r) = rt.shade(&p, -gbuffer.view_dir[i], 0, rng);
@@ -576,6 +614,9 @@ impl Technique for Wavecache {
                 (sum / samples as f32, rays)
             })
         })?;
+        // The pixels traced because their cache point was too far (`trace_far`), of the image.
+        let share = far_pixels.into_inner() as f64 / gbuffer.len().max(1) as f64;
+        stats.metrics.push(("far_traced_pct".to_owned(), 100.0 * share));
         Ok(stats)
     }
 }
