@@ -324,13 +324,13 @@ impl Technique for LightsVoxArray {
             Structure::Static(a) | Structure::Deforming(a) if self.tiled => Some(a),
             _ => None,
         };
-        let confirm: Option<&dyn Visibility> = if self.refine { Some(&ctx.tracer) } else { None };
         let confirmed = AtomicU64::new(0);
+        let how = How { simd, confirm: if self.refine { Some(&ctx.tracer) } else { None }, confirmed: &confirmed };
         stats.rays = stats.time("shade", || match tiled {
-            Some(VoxArray::R32(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd, confirm, &confirmed),
-            Some(VoxArray::R64(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd, confirm, &confirmed),
-            Some(VoxArray::R128(a)) => shade_tiled(a, ctx, gbuffer, lights, out, simd, confirm, &confirmed),
-            None => shade_samples(vis, ctx, gbuffer, lights, out, simd, confirm, &confirmed),
+            Some(VoxArray::R32(a)) => shade_tiled(a, ctx, gbuffer, lights, out, &how),
+            Some(VoxArray::R64(a)) => shade_tiled(a, ctx, gbuffer, lights, out, &how),
+            Some(VoxArray::R128(a)) => shade_tiled(a, ctx, gbuffer, lights, out, &how),
+            None => shade_samples(vis, ctx, gbuffer, lights, out, &how),
         });
         if self.epsilon {
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
@@ -347,21 +347,21 @@ impl Technique for LightsVoxArray {
     }
 }
 
+/// How a frame is shaded: AVX2 or scalar, and with `refine` the exact tracer that confirms
+/// occluded answers and the count of those it traced.
+#[derive(Clone, Copy)]
+struct How<'a> {
+    simd: bool,
+    confirm: Option<&'a dyn Visibility>,
+    confirmed: &'a AtomicU64,
+}
+
 /// Alg. 4 with the tiled shader ([`crate::shade8`]): bands of [`TILE`]`.1` image rows in
 /// parallel, each cut into tiles of [`TILE`] pixels shaded with the light loop outside (one
 /// light's queries from neighbouring pixels read the same voxelization and nearby rows). Returns
 /// the shadow decisions made.
-#[allow(clippy::too_many_arguments)]
-fn shade_tiled<R: Row>(
-    array: &Array<R>,
-    ctx: &FrameContext,
-    gbuffer: &GBuffer,
-    lights: &[WorldLight],
-    out: &mut Image,
-    simd: bool,
-    confirm: Option<&dyn Visibility>,
-    confirmed: &AtomicU64,
-) -> u64 {
+fn shade_tiled<R: Row>(array: &Array<R>, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, how: &How) -> u64 {
+    let How { simd, confirm, confirmed } = *how;
     let width = out.width as usize;
     let (tw, th) = TILE;
     out.pixels
@@ -400,17 +400,8 @@ fn shade_tiled<R: Row>(
 /// tiles of [`PIXELS_PER_TILE`] consecutive pixels with the light loop outside, one light's
 /// samples of a tile formed one by one and their queries batched ([`crate::batch`]). Returns the
 /// shadow decisions made.
-#[allow(clippy::too_many_arguments)]
-fn shade_samples(
-    vis: &Structure,
-    ctx: &FrameContext,
-    gbuffer: &GBuffer,
-    lights: &[WorldLight],
-    out: &mut Image,
-    simd: bool,
-    confirm: Option<&dyn Visibility>,
-    confirmed: &AtomicU64,
-) -> u64 {
+fn shade_samples(vis: &Structure, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, how: &How) -> u64 {
+    let How { simd, confirm, confirmed } = *how;
     out.pixels
         .par_chunks_mut(PIXELS_PER_TILE)
         .enumerate()
