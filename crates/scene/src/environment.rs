@@ -14,6 +14,8 @@ pub struct Environment {
     /// Multiplies every texel.
     pub scale: f32,
     distribution: Distribution2D,
+    /// [`Environment::half_power_solid_angle`], computed on first use.
+    half_power: std::sync::OnceLock<f32>,
 }
 
 impl Environment {
@@ -27,7 +29,39 @@ impl Environment {
             })
             .collect();
         let distribution = Distribution2D::new(&func, w, h);
-        Self { image, scale, distribution }
+        Self { image, scale, distribution, half_power: std::sync::OnceLock::new() }
+    }
+
+    /// The solid angle (sr) of the brightest directions that together send half the map's power
+    /// (luminance × solid angle, texel by texel): about 2π for a uniform sky, a few hundredths
+    /// of a steradian for a studio map lit by small softboxes. A measure of how small the map's
+    /// bright features are, for techniques whose resolution must resolve them.
+    pub fn half_power_solid_angle(&self) -> f32 {
+        *self.half_power.get_or_init(|| {
+            let (w, h) = (self.image.width as usize, self.image.height as usize);
+            let texel = 2.0 * PI * PI / (w * h) as f32; // (2π / w) · (π / h), times sin θ below
+            let mut texels: Vec<(f32, f32)> = (0..h)
+                .flat_map(|y| {
+                    let omega = texel * (PI * (y as f32 + 0.5) / h as f32).sin();
+                    let img = &self.image;
+                    (0..w).map(move |x| (luminance(img.pixels[y * w + x]).max(0.0), omega))
+                })
+                .collect();
+            let total: f64 = texels.iter().map(|(l, o)| (*l * *o) as f64).sum();
+            if !(total > 0.0) {
+                return 4.0 * PI;
+            }
+            texels.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+            let (mut power, mut solid_angle) = (0.0f64, 0.0f32);
+            for (l, o) in texels {
+                if power >= 0.5 * total {
+                    break;
+                }
+                power += (l * o) as f64;
+                solid_angle += o;
+            }
+            solid_angle
+        })
     }
 
     /// The same radiance from every direction (the furnace test's light).
@@ -95,6 +129,22 @@ impl Environment {
 mod tests {
     use super::*;
     use glimpse_core::Rng;
+
+    /// Uniform: half the power comes from half the sphere. One bright texel holding most of the
+    /// power: its own solid angle.
+    #[test]
+    fn half_power_solid_angle_measures_the_bright_part() {
+        let uniform = Environment::new(Image::filled(64, 32, Vec3::ONE), 1.0).half_power_solid_angle();
+        println!("uniform: {uniform} sr (2π = {})", 2.0 * PI);
+        assert!((uniform - 2.0 * PI).abs() < 0.05 * 2.0 * PI, "{uniform}");
+        let mut img = Image::filled(64, 32, Vec3::splat(0.001));
+        img.pixels[16 * 64 + 10] = Vec3::splat(1e4);
+        let spot = Environment::new(img, 1.0).half_power_solid_angle();
+        let texel = 2.0 * PI * PI / (64.0 * 32.0) * (PI * 16.5 / 32.0).sin();
+        println!("one bright texel: {spot} sr (its solid angle {texel})");
+        assert!((spot - texel).abs() < 1e-6, "{spot} vs {texel}");
+        assert_eq!(Environment::constant(Vec3::ZERO).half_power_solid_angle(), 4.0 * PI);
+    }
 
     #[test]
     fn direction_mapping_round_trips() {

@@ -164,6 +164,16 @@ pub struct WavecacheParams {
     /// the tuned scenes' gold (r 0.25) and copper (r 0.3), so `glossy`'s shading goes from 71 to
     /// 911 ms at 128 spp and the ≥ 20× speed-up over `pt` is lost (docs/techniques/wavecache.md).
     pub sharp_texels: f32,
+    /// `sharp_env` (ours, off by default): where the environment's brighter half (by power) fits
+    /// within one texel of a material's radiance map (`Environment::half_power_solid_angle` <
+    /// (π/N)²: a studio map's softboxes, a small sun), that material traces its lobes below two
+    /// texels (`sharp_texels` 2, the Nyquist rule) instead of one: the map cannot resolve the
+    /// light, and a lobe of one to two texels then aliases it (`textured-glossy`'s highlights).
+    /// Smooth and mid-frequency maps (the tuned scenes' sky, the warehouse map) keep
+    /// `sharp_texels`. Off by default: it trades that bias for the traced lobes' noise, which
+    /// on `studio-objects` at 16 spp doubles the MSE (docs/techniques/wavecache.md, "How sharp
+    /// is sharp").
+    pub sharp_env: bool,
     /// Clear-coat ray chain depth (paper 3; spec §5: "The maximum tracing depth is set to 3").
     pub coat_depth: u32,
     /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
@@ -210,6 +220,7 @@ impl Default for WavecacheParams {
             normal_cutoff_deg: 30.0,
             search_radius: 8.0,
             trace_far: DEFAULT_TRACE_FAR,
+            sharp_env: false,
             layers: 0,
             mirror_roughness: 0.1,
             mirror_depth: 4,
@@ -257,6 +268,7 @@ impl WavecacheParams {
             progress: d.progress,
             trace_sharp: d.trace_sharp,
             sharp_texels: d.sharp_texels,
+            sharp_env: d.sharp_env,
             query_m: d.query_m,
             normal_weight: d.normal_weight,
             normal_cutoff_deg: d.normal_cutoff_deg,
@@ -323,6 +335,7 @@ impl WavecacheParams {
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,
             trace_sharp: params.bool("trace_sharp", base.trace_sharp)?,
             sharp_texels: params.f32("sharp_texels", base.sharp_texels, 0.0, 1024.0)?,
+            sharp_env: params.bool("sharp_env", base.sharp_env)?,
             coat_depth: params.u32("coat_depth", base.coat_depth, 1, 64)?,
             diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
             brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {

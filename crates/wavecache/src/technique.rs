@@ -268,6 +268,12 @@ impl<'a> Runtime<'a> {
         vis: &'a glimpse_trace::ExactTracer,
     ) -> Self {
         let classes: Vec<Class> = frame.scene.materials.iter().map(|m| params.classify(m)).collect();
+        // `sharp_env`: a map whose bright half fits in one texel of an N² map gets the Nyquist rule.
+        let env_half_power = frame.scene.environment.as_ref().map_or(f32::INFINITY, |e| e.half_power_solid_angle());
+        let texels = |n: u32| {
+            let unresolved = env_half_power < (std::f32::consts::PI / n as f32).powi(2);
+            if params.sharp_env && unresolved { params.sharp_texels.max(2.0) } else { params.sharp_texels }
+        };
         let traced = frame
             .scene
             .materials
@@ -275,7 +281,7 @@ impl<'a> Runtime<'a> {
             .zip(&classes)
             .map(|(m, c)| {
                 let sharp_glossy = *c == Class::Glossy
-                    && params.map_resolution(m.roughness).is_some_and(|n| lobe_finer_than_map(m.roughness, n, params.sharp_texels));
+                    && params.map_resolution(m.roughness).is_some_and(|n| lobe_finer_than_map(m.roughness, n, texels(n)));
                 // Below the mirror threshold but not smooth: `pt`'s GGX lobe, not Eq. 18's mirror.
                 let rough_mirror = *c == Class::Mirror && m.roughness > 0.0;
                 params.trace_sharp && (sharp_glossy || rough_mirror)

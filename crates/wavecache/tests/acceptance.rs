@@ -960,3 +960,27 @@ fn trace_far_is_a_parameter_and_the_paper_profile_turns_it_off() {
     // Runtime-only: not part of the precomputation's key.
     assert_eq!(read(&["trace_far=2.5"]).precompute_part(), read(&[]).precompute_part());
 }
+
+/// `sharp_env` (ours, off by default): under a map whose bright half fits in one texel of a
+/// material's radiance map, lobes below two texels are traced; under a smooth map nothing
+/// changes.
+#[test]
+fn sharp_env_traces_lobes_the_map_cannot_resolve() {
+    let mut scene = glimpse_scene::load("glossy").unwrap();
+    let traced = |scene: &Scene, sharp_env: bool| {
+        let ctx = FrameContext::new(scene, 0.0, 8, 8);
+        let p = WavecacheParams { sharp_env, ..small_params() };
+        let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
+        Runtime::new(&cache, &p, &ctx.frame, &ctx.tracer).traced.iter().filter(|t| **t).count()
+    };
+    let smooth = (traced(&scene, false), traced(&scene, true));
+    // One bright texel holding nearly all the map's power.
+    let mut img = glimpse_core::Image::filled(64, 32, Vec3::splat(0.001));
+    img.pixels[8 * 64 + 20] = Vec3::splat(1e5);
+    scene.environment = Some(Environment::new(img, 1.0));
+    let sharp = (traced(&scene, false), traced(&scene, true));
+    println!("traced materials (sharp_env off, on): smooth sky {smooth:?}, one-texel map {sharp:?}");
+    assert_eq!(smooth.0, smooth.1, "a smooth map changes nothing");
+    assert_eq!(sharp.0, smooth.0, "off, the map does not matter");
+    assert!(sharp.1 > sharp.0, "on, a one-texel map traces the lobes of one to two texels");
+}
