@@ -48,7 +48,7 @@ impl Environment {
                 })
                 .collect();
             let total: f64 = texels.iter().map(|(l, o)| (*l * *o) as f64).sum();
-            if !(total > 0.0) {
+            if total.is_nan() || total <= 0.0 {
                 return 4.0 * PI;
             }
             texels.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
