@@ -269,10 +269,11 @@ impl<'a> Runtime<'a> {
     ) -> Self {
         let classes: Vec<Class> = frame.scene.materials.iter().map(|m| params.classify(m)).collect();
         // `sharp_env`: a map whose bright half fits in one texel of an N² map gets the Nyquist rule.
-        let env_half_power = frame.scene.environment.as_ref().map_or(f32::INFINITY, |e| e.half_power_solid_angle());
+        let env = frame.scene.environment.as_ref().filter(|_| params.sharp_env);
+        let env_half_power = env.map_or(f32::INFINITY, |e| e.half_power_solid_angle());
         let texels = |n: u32| {
             let unresolved = env_half_power < (std::f32::consts::PI / n as f32).powi(2);
-            if params.sharp_env && unresolved { params.sharp_texels.max(2.0) } else { params.sharp_texels }
+            if unresolved { params.sharp_texels.max(2.0) } else { params.sharp_texels }
         };
         let traced = frame
             .scene
