@@ -425,6 +425,19 @@ impl<'a> Runtime<'a> {
 
     /// Everything reflected at `s` towards `wo` (no emission of `s`); (radiance, rays).
     pub fn shade(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
+        self.shade_from(s, wo, depth, rng, None)
+    }
+
+    /// [`Self::shade`] with `s`'s [`Self::point_for`] already known (the render loop looks it up
+    /// once per pixel to choose the sample count).
+    fn shade_from(
+        &self,
+        s: &ShadePoint,
+        wo: Vec3,
+        depth: u32,
+        rng: &mut Rng,
+        known: Option<(Option<&'a CachePoint>, bool)>,
+    ) -> (Vec3, u64) {
         let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
         let traced = self.traced.get(s.material as usize).copied().unwrap_or(false);
         if class == Class::Mirror && !traced {
@@ -444,7 +457,7 @@ impl<'a> Runtime<'a> {
             // A cache point too far holds another place's light: trace, as a sharp lobe. At the
             // pixel only: a traced sample's hit reads the cache whatever its distance (a chain
             // of far hits would become a path tracer).
-            let (point, far) = self.point_for(s, wo);
+            let (point, far) = known.unwrap_or_else(|| self.point_for(s, wo));
             if far && depth == 0 && depth + 1 < self.params.mirror_depth {
                 let (l, r) = self.traced_sample(s, wo, depth, rng);
                 rays += r;
@@ -608,14 +621,15 @@ impl Technique for Wavecache {
                 // cache: `trace_far`) draws random numbers, so only it takes the pixel's `spp`
                 // samples.
                 let sharp = rt.traced.get(p.material as usize).copied().unwrap_or(false);
-                let far = !sharp && rt.point_for(&p, -gbuffer.view_dir[i]).1;
+                let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
+                let far = known.is_some_and(|k| k.1);
                 if far {
                     far_pixels.fetch_add(1, Ordering::Relaxed);
                 }
                 let samples = if sharp || far { spp } else { 1 };
                 let (mut sum, mut rays) = (Vec3::ZERO, 0);
                 for _ in 0..samples {
-                    let (l, r) = rt.shade(&p, -gbuffer.view_dir[i], 0, rng);
+                    let (l, r) = rt.shade_from(&p, -gbuffer.view_dir[i], 0, rng, known);
                     (sum, rays) = (sum + l, rays + r);
                 }
                 (sum / samples as f32, rays)
