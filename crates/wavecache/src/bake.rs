@@ -18,6 +18,8 @@
 //! - sparsification (irradiance points only, the paper's "low-frequency" objects): a point whose mean relative energy difference to its neighbours (within
 //!   2 r_max) is below the cloud's mean is removed with probability
 //!   `sparsify × (1 − diff / mean)`, never next to a point already removed.
+//! - buried points (ours, `enclosed_share`): a point whose probe rays mostly hit the back of a
+//!   one-sided surface lies inside a closed mesh; it is not baked, and the caller drops it.
 
 use crate::brdf;
 use crate::haar::{self, HaarNode, TreeRef};
@@ -168,6 +170,29 @@ impl<'a> Integrator<'a> {
     }
 }
 
+/// Probe rays of [`Integrator::enclosed_share`].
+pub const ENCLOSURE_RAYS: u32 = 16;
+
+impl Integrator<'_> {
+    /// The share of `ENCLOSURE_RAYS` cosine-distributed rays from `s` whose first hit is the back
+    /// of a one-sided surface (`two_sided(instance)` false): near 1 for a point buried inside a
+    /// closed mesh (an eyeball's hidden half, an interpenetrating prop), whose cached light is
+    /// the dark inside. Back faces of two-sided instances (leaves, cloth) count as front.
+    pub fn enclosed_share(&self, s: &SurfaceSample, two_sided: &dyn Fn(u32) -> bool, rng: &mut Rng) -> (f32, u64) {
+        let frame = Frame::from_z(s.normal);
+        let k = (ENCLOSURE_RAYS as f32).sqrt() as u32;
+        let mut back = 0;
+        for j in 0..ENCLOSURE_RAYS {
+            let cell = Vec2::new((j % k) as f32, (j / k) as f32);
+            let dir = frame.to_world(glimpse_core::sampling::cosine_hemisphere((cell + rng.next_2d()) / k as f32));
+            let ray = Ray::spawn(s.position, s.normal, s.error_scale, dir);
+            let hit = self.tracer.closest_hit(&ray, f32::INFINITY);
+            back += hit.is_some_and(|h| !two_sided(h.instance) && !SurfacePoint::from_hit(self.frame, &ray, &h).front_face) as u32;
+        }
+        (back as f32 / ENCLOSURE_RAYS as f32, ENCLOSURE_RAYS as u64)
+    }
+}
+
 /// Table 2: radiance-map resolution by roughness (None below the mirror threshold 0.1).
 pub fn table2_resolution(roughness: f32) -> Option<u32> {
     if roughness < 0.1 {
@@ -189,11 +214,13 @@ pub struct BakedMesh {
     pub energy: Vec<f32>,
     pub irradiance: Vec<Vec3>,
     pub maps: Vec<(Vec<HaarNode>, TreeRef)>,
+    /// Points buried inside a closed mesh (`enclosed_share`), not baked: dropped by the caller.
+    pub enclosed: Vec<bool>,
     pub rays: u64,
 }
 
-/// One baked point: energy, irradiance, radiance tree (glossy), rays traced.
-type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, u64);
+/// One baked point: energy, irradiance, radiance tree (glossy), rays traced, enclosed.
+type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, u64, bool);
 
 /// Bakes the points of one instance (`class` Diffuse or Glossy).
 pub fn bake_points(
@@ -210,6 +237,19 @@ pub fn bake_points(
         .enumerate()
         .map(|(i, s)| {
             let mut rng = Rng::new(seed, i as u64 ^ 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(seed + 1));
+            // Its own stream: the probe leaves the lighting's random numbers as they were.
+            let mut probe_rng = Rng::new(seed ^ 0x5eed_e4c1_05ed, i as u64);
+            let (share, probe_rays) =
+                if p.enclosed_share < 1.0 { integ.enclosed_share(s, &|inst| p.two_sided(inst as usize), &mut probe_rng) } else { (0.0, 0) };
+            if share > p.enclosed_share {
+                tick(1);
+                let map = (class == Class::Glossy).then(|| {
+                    let mut nodes = Vec::new();
+                    let t = haar::build(&vec![[0.0; 3]; (map_res * map_res) as usize], map_res, 0.0, &mut nodes);
+                    (nodes, t)
+                });
+                return (0.0, Vec3::ZERO, map, probe_rays, true);
+            }
             let out = match class {
                 Class::Glossy => {
                     let frame = crate::halfcube::map_frame(s.shading_normal);
@@ -217,7 +257,7 @@ pub fn bake_points(
                     let mut nodes = Vec::new();
                     let t = haar::build(&img, map_res, p.radiance_beta as f64, &mut nodes);
                     let e = luminance(nodes[0].c());
-                    (e, Vec3::ZERO, Some((nodes, t)), rays)
+                    (e, Vec3::ZERO, Some((nodes, t)), rays + probe_rays, false)
                 }
                 _ => {
                     let (mut sum, mut rays) = (Vec3::ZERO, 0);
@@ -229,16 +269,17 @@ pub fn bake_points(
                         }
                     }
                     let e = sum / p.irradiance_samples.max(1) as f32;
-                    (luminance(e), e, None, rays)
+                    (luminance(e), e, None, rays + probe_rays, false)
                 }
             };
             tick(1);
             out
         })
         .collect();
-    let mut b = BakedMesh { samples, energy: Vec::new(), irradiance: Vec::new(), maps: Vec::new(), rays: 0 };
-    for (e, irr, map, rays) in results {
+    let mut b = BakedMesh { samples, energy: Vec::new(), irradiance: Vec::new(), maps: Vec::new(), enclosed: Vec::new(), rays: 0 };
+    for (e, irr, map, rays, enclosed) in results {
         b.energy.push(e);
+        b.enclosed.push(enclosed);
         b.irradiance.push(irr);
         if let Some(m) = map {
             b.maps.push(m);

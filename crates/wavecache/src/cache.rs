@@ -146,7 +146,7 @@ impl WaveCache {
         let total = |class: Class| -> f32 { (0..areas.len()).filter(|&i| inst_class[i] == class).map(|i| areas[i]).sum() };
         let (area_d, area_g) = (total(Class::Diffuse), total(Class::Glossy));
         let plan = plan_points(frame, p, &inst_class, &areas);
-        let mut rays = 0u64;
+        let (mut rays, mut enclosed) = (0u64, 0usize);
         for (i, wm) in meshes.iter().enumerate() {
             let class = inst_class[i];
             let material = scene.meshes[scene.instances[i].mesh as usize].material;
@@ -180,9 +180,10 @@ impl WaveCache {
             // glossy point's map differs from its neighbours' even where their energies agree).
             let strength = if class == Class::Diffuse { p.sparsify } else { 0.0 };
             let mut keep = bake::sparsify(&positions, &baked.energy, r_max, strength, seed ^ i as u64);
-            for (k, e) in keep.iter_mut().zip(&baked.energy) {
-                *k &= *e >= p.min_energy;
+            for ((k, e), buried) in keep.iter_mut().zip(&baked.energy).zip(&baked.enclosed) {
+                *k &= *e >= p.min_energy && !buried;
             }
+            enclosed += baked.enclosed.iter().filter(|b| **b).count();
             if !keep.iter().any(|k| *k) {
                 keep.iter_mut().for_each(|k| *k = true);
             }
@@ -224,7 +225,7 @@ impl WaveCache {
             c.meshes.push(mc);
         }
         let _ = (area_d, area_g);
-        c.build_info = vec![brdf_ms, sw.ms(), rays as f64, plan.paths as f64, plan.scale];
+        c.build_info = vec![brdf_ms, sw.ms(), rays as f64, plan.paths as f64, plan.scale, enclosed as f64];
         Ok(c)
     }
 

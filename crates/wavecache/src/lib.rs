@@ -126,6 +126,13 @@ pub struct WavecacheParams {
     pub sparsify: f32,
     /// Points whose energy is below this are dropped (Sec. 6's low-energy points; 0 = none).
     pub min_energy: f32,
+    /// `enclosed_share` (ours; 1 = off, `profile=paper`): a point whose probe rays
+    /// ([`bake::ENCLOSURE_RAYS`]) hit the back of a one-sided surface in more than this share is
+    /// buried inside a closed mesh (Suzanne's eyeballs inside her head, interpenetrating props):
+    /// it is not baked and not kept. Its cached light is the dark inside, which the query handed
+    /// to visible pixels nearby as black patches (`studio-objects`). See
+    /// docs/techniques/wavecache.md ("Buried points").
+    pub enclosed_share: f32,
     /// m: candidates examined per query (0: exact argmax).
     pub query_m: u32,
     /// λ of the position/normal score.
@@ -147,6 +154,15 @@ pub struct WavecacheParams {
     /// otherwise reads one several r_max away: black where lit, or over 2× `pt`. See
     /// docs/techniques/wavecache.md ("Far points").
     pub trace_far: f32,
+    /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
+    /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max
+    /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
+    /// point's alone. One point per shaded point made the image a mosaic of the points' Voronoi
+    /// cells: blocky shadows, and a dark point (a crease, a concave corner) painted over its
+    /// whole cell. See docs/techniques/wavecache.md ("Blending diffuse points").
+    pub blend: u32,
+    /// The blending kernel's radius in units of the mesh's r_max (points are about 2 r_max apart).
+    pub blend_radius: f32,
     /// Quadtree layers traversed in the product (0: all).
     pub layers: u32,
     /// Roughness below which a surface is a mirror (paper 0.1).
@@ -215,11 +231,14 @@ impl Default for WavecacheParams {
             max_depth: 8,
             sparsify: 1.0,
             min_energy: 0.0,
+            enclosed_share: 0.5,
             query_m: 32,
             normal_weight: 1.0,
             normal_cutoff_deg: 30.0,
             search_radius: 8.0,
             trace_far: DEFAULT_TRACE_FAR,
+            blend: 4,
+            blend_radius: 2.0,
             sharp_env: false,
             layers: 0,
             mirror_roughness: 0.1,
@@ -253,6 +272,8 @@ impl WavecacheParams {
             sharp_texels: 1.0,
             search_radius: f32::INFINITY,
             trace_far: f32::INFINITY,
+            blend: 1,
+            enclosed_share: 1.0,
             ..Self::default()
         }
     }
@@ -274,6 +295,8 @@ impl WavecacheParams {
             normal_cutoff_deg: d.normal_cutoff_deg,
             search_radius: d.search_radius,
             trace_far: d.trace_far,
+            blend: d.blend,
+            blend_radius: d.blend_radius,
             layers: d.layers,
             wo_frame: d.wo_frame,
             mirror_depth: d.mirror_depth,
@@ -325,11 +348,14 @@ impl WavecacheParams {
             max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
             sparsify: params.f32("sparsify", base.sparsify, 0.0, 1.0)?,
             min_energy: params.f32("min_energy", base.min_energy, 0.0, f32::INFINITY)?,
+            enclosed_share: params.f32("enclosed_share", base.enclosed_share, 0.0, 1.0)?,
             query_m: params.u32("query_m", base.query_m, 0, u32::MAX)?,
             normal_weight: params.f32("normal_weight", base.normal_weight, 0.0, 1e6)?,
             normal_cutoff_deg: params.f32("normal_cutoff_deg", base.normal_cutoff_deg, 0.0, 180.0)?,
             search_radius: params.f32("search_radius", base.search_radius, 0.0, f32::INFINITY)?,
             trace_far: params.f32("trace_far", base.trace_far, 0.0, f32::INFINITY)?,
+            blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
+            blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,
             layers: params.u32("layers", base.layers, 0, 32)?,
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,
             mirror_depth: params.u32("mirror_depth", base.mirror_depth, 1, 64)?,

@@ -337,10 +337,29 @@ pub const OTHER_SIDE_LIMIT: u32 = 64;
 /// `sponza-interior` at 320 × 180. Skipped during the search, the best point of the right side
 /// wins.
 pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &QueryParams, x: Vec3, n: Vec3, side: Vec3) -> Option<u32> {
-    if nodes.is_empty() || pts.is_empty() {
-        return None;
+    let mut best = [(f32::NEG_INFINITY, 0u32)];
+    (query_points_best(nodes, pts, q, x, n, side, &mut best) > 0).then_some(best[0].1)
+}
+
+/// [`query_points`]'s search keeping the `best.len()` best (score, index) pairs, best first;
+/// returns how many were found. The search prunes against the worst kept score, so more kept
+/// points visit more of the tree (the candidate cap `max_candidates` still bounds it).
+pub fn query_points_best(
+    nodes: &[OctNode],
+    pts: &[crate::bake::CachePoint],
+    q: &QueryParams,
+    x: Vec3,
+    n: Vec3,
+    side: Vec3,
+    best: &mut [(f32, u32)],
+) -> usize {
+    if nodes.is_empty() || pts.is_empty() || best.is_empty() {
+        return 0;
     }
-    let (mut best, mut best_i) = (f32::NEG_INFINITY, None);
+    let k = best.len();
+    let mut found = 0usize;
+    // The score a candidate must beat: the worst kept once the list is full.
+    let floor = |best: &[(f32, u32)], found: usize| if found < k { f32::NEG_INFINITY } else { best[k - 1].0 };
     let (mut examined, mut other_side) = (0u32, 0u32);
     // A fixed stack (no allocation per pixel): depth ≤ MAX_DEPTH levels × ≤ 8 children.
     let mut stack = [(0f32, 0u32); 8 * (MAX_DEPTH as usize + 2)];
@@ -349,15 +368,15 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
     while top > 0 {
         top -= 1;
         let (b, at) = stack[top];
-        if b <= best {
+        if b <= floor(best, found) {
             continue;
         }
-        if q.max_candidates > 0 && examined >= q.max_candidates && best_i.is_some() {
+        if q.max_candidates > 0 && examined >= q.max_candidates && found > 0 {
             break;
         }
         // A surface whose side has no points near (a back face the cache was not made for):
         // give up as the cap would, rather than visit the whole mesh for every such pixel.
-        if q.max_candidates > 0 && best_i.is_none() && other_side >= OTHER_SIDE_LIMIT * q.max_candidates {
+        if q.max_candidates > 0 && found == 0 && other_side >= OTHER_SIDE_LIMIT * q.max_candidates {
             break;
         }
         let node = &nodes[at as usize];
@@ -370,15 +389,23 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
                 }
                 let s = score(q, x, n, Vec3::from(p.position), Vec3::from(p.shading_normal));
                 examined += 1;
-                if s > best {
-                    (best, best_i) = (s, Some(i));
+                if s > floor(best, found) {
+                    // Insert in descending order, dropping the worst when full.
+                    let mut j = found.min(k - 1);
+                    while j > 0 && best[j - 1].0 < s {
+                        best[j] = best[j - 1];
+                        j -= 1;
+                    }
+                    best[j] = (s, i);
+                    found = (found + 1).min(k);
                 }
             }
         } else {
             let start = top;
+            let f = floor(best, found);
             for c in node.first_child..node.first_child + node.child_count {
                 let bc = bound(q, &nodes[c as usize], x);
-                if bc > best && top < stack.len() {
+                if bc > f && top < stack.len() {
                     stack[top] = (bc, c);
                     top += 1;
                 }
@@ -386,5 +413,5 @@ pub fn query_points(nodes: &[OctNode], pts: &[crate::bake::CachePoint], q: &Quer
             stack[start..top].sort_unstable_by(|a, b| a.0.total_cmp(&b.0));
         }
     }
-    best_i
+    found
 }

@@ -39,6 +39,20 @@ use glimpse_trace::{GBuffer, SurfacePoint};
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 
+/// Most cache points a diffuse lookup blends (`blend`'s upper bound).
+pub const MAX_BLEND: usize = 16;
+
+/// What a shaded point reads from the cache ([`Runtime::point_for`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Reading<'a> {
+    /// The best point by the paper's score (`None` on a mirror or where none is found).
+    pub point: Option<&'a CachePoint>,
+    /// A diffuse mesh's irradiance, blended over its nearest points (`blend`).
+    pub irradiance: Option<Vec3>,
+    /// The best point is too far to stand for the shaded point's light (`trace_far`).
+    pub far: bool,
+}
+
 pub struct Wavecache {
     pub params: WavecacheParams,
     pub settings: Settings,
@@ -147,6 +161,9 @@ impl Wavecache {
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
         stats.rays = c.build_info.get(2).copied().unwrap_or(0.0) as u64;
+        if let Some(&n) = c.build_info.get(5) {
+            stats.metrics.push(("enclosed_points".to_owned(), n));
+        }
         if let (Some(&paths), Some(&scale)) = (c.build_info.get(3), c.build_info.get(4)) {
             stats.metrics.push(("precompute_paths".to_owned(), paths));
             stats.metrics.push(("point_budget_scale".to_owned(), scale));
@@ -297,10 +314,17 @@ impl<'a> Runtime<'a> {
     /// so none is found there (a back face the camera did not see when the cache was made gets
     /// no cached light, rather than the front's).
     pub fn lookup(&self, s: &ShadePoint, ns: Vec3) -> Option<&'a CachePoint> {
-        let mc = self.cache.meshes.get(s.instance as usize)?;
-        if mc.point_count == 0 {
-            return None;
-        }
+        let mut best = [(0.0, 0)];
+        let (pts, found) = self.lookup_best(s, ns, &mut best);
+        (found > 0).then(|| &pts[best[0].1 as usize])
+    }
+
+    /// [`Self::lookup`] keeping the `best.len()` best (score, index) pairs, best first; returns
+    /// the mesh's points (what the indices index) and how many were found.
+    fn lookup_best(&self, s: &ShadePoint, ns: Vec3, best: &mut [(f32, u32)]) -> (&'a [CachePoint], usize) {
+        let Some(mc) = self.cache.meshes.get(s.instance as usize).filter(|mc| mc.point_count > 0) else {
+            return (&[], 0);
+        };
         let nodes = &self.cache.octree[mc.first_node as usize..(mc.first_node + mc.node_count) as usize];
         let pts = &self.cache.points[mc.first_point as usize..(mc.first_point + mc.point_count) as usize];
         let r_max = mc.r_max.max(1e-12);
@@ -311,8 +335,56 @@ impl<'a> Runtime<'a> {
             max_candidates: self.params.query_m,
             search_radius: self.params.search_radius * r_max,
         };
-        let i = points::query_points(nodes, pts, &q, s.position, ns, s.normal)?;
-        pts.get(i as usize)
+        (pts, points::query_points_best(nodes, pts, &q, s.position, ns, s.normal, best))
+    }
+
+    /// What `s` reads from the cache seen from `wo` ([`Reading`]): its best point, the blended
+    /// irradiance of a diffuse mesh's nearest points (`blend`), and whether the best point is too
+    /// far to stand for `s`'s light: none found, or farther than `trace_far` × its mesh's r_max
+    /// (then `shade` traces instead).
+    pub fn point_for(&self, s: &ShadePoint, wo: Vec3) -> Reading<'a> {
+        let class = self.classes.get(s.material as usize).copied();
+        if class.is_none_or(|c| c == Class::Mirror) {
+            return Reading::default();
+        }
+        let ns = s.facing_normal(wo);
+        let mut best = [(0.0, 0); MAX_BLEND];
+        let k = if class == Some(Class::Diffuse) { (self.params.blend as usize).clamp(1, MAX_BLEND) } else { 1 };
+        let (pts, found) = self.lookup_best(s, ns, &mut best[..k]);
+        let point = (found > 0).then(|| &pts[best[0].1 as usize]);
+        let mc = self.cache.meshes.get(s.instance as usize);
+        let far = match (point, mc) {
+            (Some(p), Some(mc)) => (Vec3::from(p.position) - s.position).length() > self.params.trace_far * mc.r_max,
+            _ => self.params.trace_far.is_finite(),
+        };
+        let irradiance = match (point, mc) {
+            (Some(p), Some(mc)) if class == Some(Class::Diffuse) => {
+                let near = best[..found].iter().map(|&(_, i)| &pts[i as usize]);
+                Some(self.blended_irradiance(s.position, ns, p, near, mc.r_max))
+            }
+            _ => None,
+        };
+        Reading { point, irradiance, far }
+    }
+
+    /// The irradiance at `x` (normal `ns`) from the best point `best` and its runners-up `near`
+    /// (best included), weighted by a biweight kernel of radius `blend_radius` × r_max and their
+    /// normals' agreement; the best point alone when no point lies within the kernel.
+    fn blended_irradiance<'p>(&self, x: Vec3, ns: Vec3, best: &CachePoint, near: impl Iterator<Item = &'p CachePoint>, r_max: f32) -> Vec3 {
+        let irradiance = |p: &CachePoint| self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO);
+        let radius = self.params.blend_radius * r_max;
+        let cutoff = self.params.normal_cutoff_deg.to_radians().cos();
+        let (mut sum, mut weights) = (Vec3::ZERO, 0.0f32);
+        for p in near {
+            let (d, c) = (x.distance(Vec3::from(p.position)) / radius, ns.dot(Vec3::from(p.shading_normal)));
+            if d >= 1.0 || c < cutoff {
+                continue;
+            }
+            let w = (1.0 - d * d).powi(2) * c;
+            sum += irradiance(p) * w;
+            weights += w;
+        }
+        if weights > 0.0 { sum / weights } else { irradiance(best) }
     }
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
@@ -341,28 +413,13 @@ impl<'a> Runtime<'a> {
         sum.max(Vec3::ZERO)
     }
 
-    /// The cache point `s` reads seen from `wo` (`None` for a mirror or where none is found),
-    /// and whether it is too far to stand for `s`'s light: none found, or farther than
-    /// `trace_far` × its mesh's r_max (then `shade` traces instead).
-    pub fn point_for(&self, s: &ShadePoint, wo: Vec3) -> (Option<&'a CachePoint>, bool) {
-        if self.classes.get(s.material as usize).is_none_or(|c| *c == Class::Mirror) {
-            return (None, false);
-        }
-        let point = self.lookup(s, s.facing_normal(wo));
-        let far = match (point, self.cache.meshes.get(s.instance as usize)) {
-            (Some(p), Some(mc)) => (Vec3::from(p.position) - s.position).length() > self.params.trace_far * mc.r_max,
-            _ => self.params.trace_far.is_finite(),
-        };
-        (point, far)
-    }
-
     /// Cached part (Eq. 19/20) at `s` seen from `wo`.
     pub fn cached(&self, s: &ShadePoint, wo: Vec3) -> Vec3 {
-        self.cached_from(s, wo, self.point_for(s, wo).0)
+        self.cached_from(s, wo, &self.point_for(s, wo))
     }
 
-    /// Eq. 19/20 at `s` seen from `wo`, from cache point `point` ([`Self::point_for`]'s).
-    fn cached_from(&self, s: &ShadePoint, wo: Vec3, point: Option<&CachePoint>) -> Vec3 {
+    /// Eq. 19/20 at `s` seen from `wo`, from what [`Self::point_for`] read.
+    fn cached_from(&self, s: &ShadePoint, wo: Vec3, reading: &Reading) -> Vec3 {
         let Some(class) = self.classes.get(s.material as usize) else {
             return Vec3::ZERO;
         };
@@ -370,17 +427,16 @@ impl<'a> Runtime<'a> {
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
-                let Some(p) = point else {
+                let Some(e) = reading.irradiance else {
                     return Vec3::ZERO;
                 };
-                let e = self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO);
                 let base = s.material as usize * ALBEDO_BINS as usize;
                 let table = self.cache.albedo.get(base..base + ALBEDO_BINS as usize).unwrap_or(&[]);
                 let [ad, as_] = brdf::albedo_lookup(table, ns.dot(wo));
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let Some(p) = point else {
+                let Some(p) = reading.point else {
                     return Vec3::ZERO;
                 };
                 let np = Vec3::from(p.shading_normal);
@@ -430,14 +486,7 @@ impl<'a> Runtime<'a> {
 
     /// [`Self::shade`] with `s`'s [`Self::point_for`] already known (the render loop looks it up
     /// once per pixel to choose the sample count).
-    fn shade_from(
-        &self,
-        s: &ShadePoint,
-        wo: Vec3,
-        depth: u32,
-        rng: &mut Rng,
-        known: Option<(Option<&'a CachePoint>, bool)>,
-    ) -> (Vec3, u64) {
+    fn shade_from(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng, known: Option<Reading<'a>>) -> (Vec3, u64) {
         let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
         let traced = self.traced.get(s.material as usize).copied().unwrap_or(false);
         if class == Class::Mirror && !traced {
@@ -457,13 +506,13 @@ impl<'a> Runtime<'a> {
             // A cache point too far holds another place's light: trace, as a sharp lobe. At the
             // pixel only: a traced sample's hit reads the cache whatever its distance (a chain
             // of far hits would become a path tracer).
-            let (point, far) = known.unwrap_or_else(|| self.point_for(s, wo));
-            if far && depth == 0 && depth + 1 < self.params.mirror_depth {
+            let reading = known.unwrap_or_else(|| self.point_for(s, wo));
+            if reading.far && depth == 0 && depth + 1 < self.params.mirror_depth {
                 let (l, r) = self.traced_sample(s, wo, depth, rng);
                 rays += r;
                 l
             } else {
-                self.cached_from(s, wo, point)
+                self.cached_from(s, wo, &reading)
             }
         };
         let base = d + indirect;
@@ -622,7 +671,7 @@ impl Technique for Wavecache {
                 // samples.
                 let sharp = rt.traced.get(p.material as usize).copied().unwrap_or(false);
                 let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
-                let far = known.is_some_and(|k| k.1);
+                let far = known.is_some_and(|k| k.far);
                 if far {
                     far_pixels.fetch_add(1, Ordering::Relaxed);
                 }

@@ -670,7 +670,7 @@ fn check_14_octree() {
         .zip(&ln)
         .map(|(p, n)| CachePoint { position: p.to_array(), normal: n.to_array(), shading_normal: n.to_array(), energy: 1.0, payload: 0 })
         .collect();
-    let (mut differ, mut far_preferred, mut wrong_side, mut best_was_wrong_side) = (0, 0, 0, 0);
+    let (mut differ, mut far_preferred, mut wrong_side, mut best_was_wrong_side, mut top_differ) = (0, 0, 0, 0, 0);
     for radius in [f32::INFINITY, 0.15, 0.4] {
         let q = QueryParams { search_radius: radius, ..q };
         for _ in 0..500 {
@@ -691,8 +691,22 @@ fn check_14_octree() {
             let unfiltered =
                 (0..lp.len()).max_by(|&a, &b| points::score(&q, x, n, lp[a], ln[a]).total_cmp(&points::score(&q, x, n, lp[b], ln[b])));
             best_was_wrong_side += unfiltered.is_some_and(|i| ln[i].dot(side) <= 0.0) as u32;
+            // The runners-up `blend` reads: the K best scores of the side's points, best first.
+            let mut top = [(0.0, 0); 4];
+            let found = points::query_points_best(&nodes, &pts, &q, x, n, side, &mut top);
+            let mut all: Vec<f32> =
+                (0..lp.len()).filter(|&i| ln[i].dot(side) > 0.0).map(|i| points::score(&q, x, n, lp[i], ln[i])).collect();
+            all.sort_by(|a, b| b.total_cmp(a));
+            let same = found == all.len().min(4)
+                && top[..found]
+                    .iter()
+                    .zip(&all)
+                    .all(|(t, b)| t.0 == *b && points::score(&q, x, n, lp[t.1 as usize], ln[t.1 as usize]) == *b);
+            top_differ += !same as u32;
         }
     }
+    println!("the 4 best (blend's search) vs brute force: {top_differ} of 1500 differ");
+    assert_eq!(top_differ, 0);
     println!(
         "runtime query (search radius, side) vs brute force: {differ} of 1500 differ; preferred beyond the radius: {far_preferred}; \
          on the wrong side: {wrong_side} (the unfiltered best was on the wrong side in {best_was_wrong_side})"

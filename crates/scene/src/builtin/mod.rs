@@ -76,7 +76,7 @@ pub(crate) fn quads_mesh(name: &str, material: u32, quads: &[[Vec3; 4]]) -> Mesh
 }
 
 /// An axis-aligned box of half-size `half` centred at the origin, faces pointing outwards.
-pub(crate) fn box_mesh(name: &str, material: u32, half: Vec3) -> Mesh {
+pub fn box_mesh(name: &str, material: u32, half: Vec3) -> Mesh {
     let h = half;
     let c = |x: f32, y: f32, z: f32| Vec3::new(x * h.x, y * h.y, z * h.z);
     quads_mesh(
