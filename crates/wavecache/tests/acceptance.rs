@@ -973,6 +973,13 @@ fn trace_far_is_a_parameter_and_the_paper_profile_turns_it_off() {
     assert!(WavecacheParams::read(&Params::parse(&["trace_far=-1"]).unwrap()).is_err());
     // Runtime-only: not part of the precomputation's key.
     assert_eq!(read(&["trace_far=2.5"]).precompute_part(), read(&[]).precompute_part());
+    // Blending (runtime) and buried points (precomputation): ours, off in the paper's profile.
+    assert_eq!((read(&[]).blend, read(&[]).blend_radius, read(&[]).enclosed_share), (4, 2.0, 0.5));
+    assert_eq!((read(&["profile=paper"]).blend, read(&["profile=paper"]).enclosed_share), (1, 1.0));
+    assert_eq!(read(&["blend=8", "blend_radius=3"]).precompute_part(), read(&[]).precompute_part());
+    assert_ne!(read(&["enclosed_share=1"]).precompute_part(), read(&[]).precompute_part());
+    assert!(WavecacheParams::read(&Params::parse(&["blend=0"]).unwrap()).is_err());
+    assert!(WavecacheParams::read(&Params::parse(&["blend=17"]).unwrap()).is_err());
 }
 
 /// `sharp_env` (ours, off by default): under a map whose bright half fits in one texel of a
