@@ -159,8 +159,11 @@ pub struct WavecacheParams {
     /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
     /// point's alone. One point per shaded point made the image a mosaic of the points' Voronoi
     /// cells: blocky shadows, and a dark point (a crease, a concave corner) painted over its
-    /// whole cell. See docs/techniques/wavecache.md ("Blending diffuse points").
+    /// whole cell. See docs/techniques/wavecache.md ("Blending points").
     pub blend: u32,
+    /// `blend` for glossy meshes (ours; `profile=paper`: 1): their points' reflected radiance
+    /// (Eq. 20), blended alike. Each point costs a wavelet product, so fewer than `blend`.
+    pub blend_glossy: u32,
     /// The blending kernel's radius in units of the mesh's r_max (points are about 2 r_max apart).
     pub blend_radius: f32,
     /// Quadtree layers traversed in the product (0: all).
@@ -238,6 +241,7 @@ impl Default for WavecacheParams {
             search_radius: 8.0,
             trace_far: DEFAULT_TRACE_FAR,
             blend: 4,
+            blend_glossy: 2,
             blend_radius: 2.0,
             sharp_env: false,
             layers: 0,
@@ -273,6 +277,7 @@ impl WavecacheParams {
             search_radius: f32::INFINITY,
             trace_far: f32::INFINITY,
             blend: 1,
+            blend_glossy: 1,
             enclosed_share: 1.0,
             ..Self::default()
         }
@@ -296,6 +301,7 @@ impl WavecacheParams {
             search_radius: d.search_radius,
             trace_far: d.trace_far,
             blend: d.blend,
+            blend_glossy: d.blend_glossy,
             blend_radius: d.blend_radius,
             layers: d.layers,
             wo_frame: d.wo_frame,
@@ -355,6 +361,7 @@ impl WavecacheParams {
             search_radius: params.f32("search_radius", base.search_radius, 0.0, f32::INFINITY)?,
             trace_far: params.f32("trace_far", base.trace_far, 0.0, f32::INFINITY)?,
             blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
+            blend_glossy: params.u32("blend_glossy", base.blend_glossy, 1, technique::MAX_BLEND as u32)?,
             blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,
             layers: params.u32("layers", base.layers, 0, 32)?,
             mirror_roughness: params.f32("mirror_roughness", base.mirror_roughness, 0.0, 1.0)?,

@@ -3,7 +3,9 @@
 //! `prepare` runs (or loads from the disk cache) the precomputation — the scene must be static.
 //! Per pixel of the GBuffer (the paper's V-buffer):
 //! - direct light of punctual lights by shadow rays with the full BRDF (Eq. 15/16);
-//! - diffuse meshes: the best cache point's irradiance × (base A_d(θ_o) + A_s(θ_o))/π (Eq. 19;
+//! - the cache points read: the paper's best point by its score, blended with the next best
+//!   within 2 r_max (`blend`, `blend_glossy`, ours; [`Runtime::point_for`]);
+//! - diffuse meshes: the points' irradiance × (base A_d(θ_o) + A_s(θ_o))/π (Eq. 19;
 //!   A_d = 1, A_s = 0 for a Lambertian material, the directional albedos of the glTF material
 //!   otherwise, so the cache shades the same BRDF as `pt`);
 //! - glossy meshes: Σ bilinear weights × (BRDF tree of the grid node ⊗ the point's radiance tree)
@@ -43,14 +45,28 @@ use std::sync::atomic::{AtomicU64, Ordering};
 pub const MAX_BLEND: usize = 16;
 
 /// What a shaded point reads from the cache ([`Runtime::point_for`]).
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct Reading<'a> {
     /// The best point by the paper's score (`None` on a mirror or where none is found).
     pub point: Option<&'a CachePoint>,
-    /// A diffuse mesh's irradiance, blended over its nearest points (`blend`).
-    pub irradiance: Option<Vec3>,
+    /// The points blended (`blend`) and their weights, summing to 1: the best point alone where
+    /// no point lies within the kernel.
+    blended: [(Option<&'a CachePoint>, f32); MAX_BLEND],
     /// The best point is too far to stand for the shaded point's light (`trace_far`).
     pub far: bool,
+}
+
+impl Default for Reading<'_> {
+    fn default() -> Self {
+        Self { point: None, blended: [(None, 0.0); MAX_BLEND], far: false }
+    }
+}
+
+impl<'a> Reading<'a> {
+    /// The blended points with their weights.
+    pub fn blended(&self) -> impl Iterator<Item = (&'a CachePoint, f32)> + '_ {
+        self.blended.iter().filter_map(|&(p, w)| p.map(|p| (p, w)))
+    }
 }
 
 pub struct Wavecache {
@@ -338,53 +354,48 @@ impl<'a> Runtime<'a> {
         (pts, points::query_points_best(nodes, pts, &q, s.position, ns, s.normal, best))
     }
 
-    /// What `s` reads from the cache seen from `wo` ([`Reading`]): its best point, the blended
-    /// irradiance of a diffuse mesh's nearest points (`blend`), and whether the best point is too
-    /// far to stand for `s`'s light: none found, or farther than `trace_far` × its mesh's r_max
-    /// (then `shade` traces instead).
+    /// What `s` reads from the cache seen from `wo` ([`Reading`]): its best point, the nearest
+    /// points blended (`blend`) and their weights, and whether the best point is too far to
+    /// stand for `s`'s light: none found, or farther than `trace_far` × its mesh's r_max (then
+    /// `shade` traces instead).
     pub fn point_for(&self, s: &ShadePoint, wo: Vec3) -> Reading<'a> {
-        let class = self.classes.get(s.material as usize).copied();
-        if class.is_none_or(|c| c == Class::Mirror) {
-            return Reading::default();
-        }
+        let blend = match self.classes.get(s.material as usize) {
+            None | Some(Class::Mirror) => return Reading::default(),
+            Some(Class::Diffuse) => self.params.blend,
+            Some(Class::Glossy) => self.params.blend_glossy,
+        };
         let ns = s.facing_normal(wo);
         let mut best = [(0.0, 0); MAX_BLEND];
-        let k = if class == Some(Class::Diffuse) { (self.params.blend as usize).clamp(1, MAX_BLEND) } else { 1 };
+        let k = (blend as usize).clamp(1, MAX_BLEND);
         let (pts, found) = self.lookup_best(s, ns, &mut best[..k]);
-        let point = (found > 0).then(|| &pts[best[0].1 as usize]);
-        let mc = self.cache.meshes.get(s.instance as usize);
-        let far = match (point, mc) {
-            (Some(p), Some(mc)) => (Vec3::from(p.position) - s.position).length() > self.params.trace_far * mc.r_max,
-            _ => self.params.trace_far.is_finite(),
+        let mut reading = Reading::default();
+        let (Some(&(_, first)), Some(mc)) = (best[..found].first(), self.cache.meshes.get(s.instance as usize)) else {
+            reading.far = self.params.trace_far.is_finite();
+            return reading;
         };
-        let irradiance = match (point, mc) {
-            (Some(p), Some(mc)) if class == Some(Class::Diffuse) => {
-                let near = best[..found].iter().map(|&(_, i)| &pts[i as usize]);
-                Some(self.blended_irradiance(s.position, ns, p, near, mc.r_max))
-            }
-            _ => None,
-        };
-        Reading { point, irradiance, far }
-    }
-
-    /// The irradiance at `x` (normal `ns`) from the best point `best` and its runners-up `near`
-    /// (best included), weighted by a biweight kernel of radius `blend_radius` × r_max and their
-    /// normals' agreement; the best point alone when no point lies within the kernel.
-    fn blended_irradiance<'p>(&self, x: Vec3, ns: Vec3, best: &CachePoint, near: impl Iterator<Item = &'p CachePoint>, r_max: f32) -> Vec3 {
-        let irradiance = |p: &CachePoint| self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO);
-        let radius = self.params.blend_radius * r_max;
+        let point = &pts[first as usize];
+        reading.point = Some(point);
+        reading.far = (Vec3::from(point.position) - s.position).length() > self.params.trace_far * mc.r_max;
+        // A biweight kernel of radius `blend_radius` × r_max times the normals' agreement,
+        // inside the normal cutoff.
+        let radius = self.params.blend_radius * mc.r_max;
         let cutoff = self.params.normal_cutoff_deg.to_radians().cos();
-        let (mut sum, mut weights) = (Vec3::ZERO, 0.0f32);
-        for p in near {
-            let (d, c) = (x.distance(Vec3::from(p.position)) / radius, ns.dot(Vec3::from(p.shading_normal)));
-            if d >= 1.0 || c < cutoff {
-                continue;
+        let mut total = 0.0;
+        for (slot, &(_, i)) in reading.blended.iter_mut().zip(&best[..found]) {
+            let p = &pts[i as usize];
+            let (d, c) = (s.position.distance(Vec3::from(p.position)) / radius, ns.dot(Vec3::from(p.shading_normal)));
+            if d < 1.0 && c >= cutoff {
+                let w = (1.0 - d * d).powi(2) * c;
+                *slot = (Some(p), w);
+                total += w;
             }
-            let w = (1.0 - d * d).powi(2) * c;
-            sum += irradiance(p) * w;
-            weights += w;
         }
-        if weights > 0.0 { sum / weights } else { irradiance(best) }
+        if total > 0.0 {
+            reading.blended.iter_mut().for_each(|b| b.1 /= total);
+        } else {
+            reading.blended[0] = (Some(point), 1.0);
+        }
+        reading
     }
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
@@ -427,29 +438,27 @@ impl<'a> Runtime<'a> {
         match class {
             Class::Mirror => Vec3::ZERO,
             Class::Diffuse => {
-                let Some(e) = reading.irradiance else {
-                    return Vec3::ZERO;
-                };
+                let e = reading.blended().map(|(p, w)| self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO) * w).sum::<Vec3>();
                 let base = s.material as usize * ALBEDO_BINS as usize;
                 let table = self.cache.albedo.get(base..base + ALBEDO_BINS as usize).unwrap_or(&[]);
                 let [ad, as_] = brdf::albedo_lookup(table, ns.dot(wo));
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let Some(p) = reading.point else {
-                    return Vec3::ZERO;
+                let ratio = texel_ratio(s.base, self.frame.scene.materials[s.material as usize].base_color);
+                let radiance = |p: &CachePoint| {
+                    let np = Vec3::from(p.shading_normal);
+                    let wo_local = match self.params.wo_frame {
+                        WoFrame::Pixel => map_frame(ns).to_local(wo),
+                        WoFrame::Point => map_frame(np).to_local(wo),
+                        WoFrame::Reflect => {
+                            let r = bsdf::reflect(wo, ns);
+                            map_frame(np).to_local(bsdf::reflect(r, np))
+                        }
+                    };
+                    self.glossy(s.material, wo_local, p.payload)
                 };
-                let np = Vec3::from(p.shading_normal);
-                let wo_local = match self.params.wo_frame {
-                    WoFrame::Pixel => map_frame(ns).to_local(wo),
-                    WoFrame::Point => map_frame(np).to_local(wo),
-                    WoFrame::Reflect => {
-                        let r = bsdf::reflect(wo, ns);
-                        map_frame(np).to_local(bsdf::reflect(r, np))
-                    }
-                };
-                self.glossy(s.material, wo_local, p.payload)
-                    * texel_ratio(s.base, self.frame.scene.materials[s.material as usize].base_color)
+                reading.blended().map(|(p, w)| radiance(p) * w).sum::<Vec3>() * ratio
             }
         }
     }

@@ -149,7 +149,8 @@ fn blending_points_is_nearer_the_irradiance() {
             .iter()
             .zip(&exact)
             .map(|(&i, e)| {
-                let got = rt.point_for(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]).irradiance.unwrap_or(Vec3::ZERO);
+                let reading = rt.point_for(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]);
+                let got = reading.blended().map(|(p, w)| cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO) * w).sum::<Vec3>();
                 ((got - *e).length_squared() / 3.0) as f64
             })
             .sum();
