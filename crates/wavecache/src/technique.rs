@@ -41,7 +41,7 @@ use glimpse_trace::{GBuffer, SurfacePoint};
 use std::f32::consts::PI;
 use std::sync::atomic::{AtomicU64, Ordering};
 
-/// Most cache points a diffuse lookup blends (`blend`'s upper bound).
+/// Most cache points a lookup blends (the upper bound of `blend` and `blend_glossy`).
 pub const MAX_BLEND: usize = 16;
 
 /// What a shaded point reads from the cache ([`Runtime::point_for`]).
@@ -218,6 +218,8 @@ pub struct Runtime<'a> {
     pub traced: Vec<bool>,
     /// Emissive triangles by hit, for the MIS weight of emission a traced sample finds.
     pub emitters: direct::EmitterIndex,
+    /// cos of the query's normal cutoff (`normal_cutoff_deg`).
+    normal_cutoff: f32,
 }
 
 /// Whether a GGX lobe of `roughness` is narrower than a texel of a radiance half-cube map of
@@ -322,7 +324,8 @@ impl<'a> Runtime<'a> {
             })
             .collect();
         let emitters = direct::EmitterIndex::new(frame);
-        Self { cache, params, frame, vis, classes, traced, emitters }
+        let normal_cutoff = params.normal_cutoff_deg.to_radians().cos();
+        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff }
     }
 
     /// The cache point chosen for the shaded point `s` (normal `ns` for the score), on the side
@@ -347,7 +350,7 @@ impl<'a> Runtime<'a> {
         let q = QueryParams {
             r_max,
             normal_weight: self.params.normal_weight,
-            normal_cutoff: self.params.normal_cutoff_deg.to_radians().cos(),
+            normal_cutoff: self.normal_cutoff,
             max_candidates: self.params.query_m,
             search_radius: self.params.search_radius * r_max,
         };
@@ -379,12 +382,11 @@ impl<'a> Runtime<'a> {
         // A biweight kernel of radius `blend_radius` × r_max times the normals' agreement,
         // inside the normal cutoff.
         let radius = self.params.blend_radius * mc.r_max;
-        let cutoff = self.params.normal_cutoff_deg.to_radians().cos();
         let mut total = 0.0;
         for (slot, &(_, i)) in reading.blended.iter_mut().zip(&best[..found]) {
             let p = &pts[i as usize];
             let (d, c) = (s.position.distance(Vec3::from(p.position)) / radius, ns.dot(Vec3::from(p.shading_normal)));
-            if d < 1.0 && c >= cutoff {
+            if d < 1.0 && c >= self.normal_cutoff {
                 let w = (1.0 - d * d).powi(2) * c;
                 *slot = (Some(p), w);
                 total += w;
@@ -495,7 +497,7 @@ impl<'a> Runtime<'a> {
 
     /// [`Self::shade`] with `s`'s [`Self::point_for`] already known (the render loop looks it up
     /// once per pixel to choose the sample count).
-    fn shade_from(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng, known: Option<Reading<'a>>) -> (Vec3, u64) {
+    fn shade_from(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng, known: Option<&Reading<'a>>) -> (Vec3, u64) {
         let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
         let traced = self.traced.get(s.material as usize).copied().unwrap_or(false);
         if class == Class::Mirror && !traced {
@@ -515,13 +517,20 @@ impl<'a> Runtime<'a> {
             // A cache point too far holds another place's light: trace, as a sharp lobe. At the
             // pixel only: a traced sample's hit reads the cache whatever its distance (a chain
             // of far hits would become a path tracer).
-            let reading = known.unwrap_or_else(|| self.point_for(s, wo));
+            let looked_up;
+            let reading = match known {
+                Some(r) => r,
+                None => {
+                    looked_up = self.point_for(s, wo);
+                    &looked_up
+                }
+            };
             if reading.far && depth == 0 && depth + 1 < self.params.mirror_depth {
                 let (l, r) = self.traced_sample(s, wo, depth, rng);
                 rays += r;
                 l
             } else {
-                self.cached_from(s, wo, &reading)
+                self.cached_from(s, wo, reading)
             }
         };
         let base = d + indirect;
@@ -680,14 +689,14 @@ impl Technique for Wavecache {
                 // samples.
                 let sharp = rt.traced.get(p.material as usize).copied().unwrap_or(false);
                 let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
-                let far = known.is_some_and(|k| k.far);
+                let far = known.as_ref().is_some_and(|k| k.far);
                 if far {
                     far_pixels.fetch_add(1, Ordering::Relaxed);
                 }
                 let samples = if sharp || far { spp } else { 1 };
                 let (mut sum, mut rays) = (Vec3::ZERO, 0);
                 for _ in 0..samples {
-                    let (l, r) = rt.shade_from(&p, -gbuffer.view_dir[i], 0, rng, known);
+                    let (l, r) = rt.shade_from(&p, -gbuffer.view_dir[i], 0, rng, known.as_ref());
                     (sum, rays) = (sum + l, rays + r);
                 }
                 (sum / samples as f32, rays)
