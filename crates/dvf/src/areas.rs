@@ -15,18 +15,24 @@ use rayon::prelude::*;
 pub struct WorldMesh {
     pub vertices: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
+    /// Per triangle: whether its samples also trace the back hemisphere (`sides`).
+    pub back: Vec<bool>,
 }
 
 impl WorldMesh {
     /// The CPU "animation update": transforms every instance's (possibly deformed) positions.
-    pub fn gather(frame: &SceneFrame) -> WorldMesh {
+    /// `back_instances` (sorted) are the instances whose triangles sample both hemispheres.
+    pub fn gather(frame: &SceneFrame, back_instances: &[u32]) -> WorldMesh {
         let mut mesh = WorldMesh::default();
         for (ii, inst) in frame.scene.instances.iter().enumerate() {
             let m = frame.transforms[ii];
             let pos = &frame.positions[inst.mesh as usize];
             let base = mesh.vertices.len() as u32;
             mesh.vertices.par_extend(pos.par_iter().map(|&p| m.transform_point3(p)));
-            mesh.indices.extend(frame.scene.meshes[inst.mesh as usize].indices.iter().map(|t| t.map(|i| i + base)));
+            let indices = &frame.scene.meshes[inst.mesh as usize].indices;
+            mesh.indices.extend(indices.iter().map(|t| t.map(|i| i + base)));
+            let back = back_instances.binary_search(&(ii as u32)).is_ok();
+            mesh.back.extend(std::iter::repeat_n(back, indices.len()));
         }
         mesh
     }
@@ -36,7 +42,7 @@ impl WorldMesh {
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.vertices.len() * 12 + self.indices.len() * 12
+        self.vertices.len() * 12 + self.indices.len() * 13
     }
 }
 

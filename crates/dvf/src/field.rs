@@ -55,8 +55,6 @@ pub struct SampleSettings {
     pub rotate_about_normal: bool,
     pub seed: u64,
     pub frame_index: u32,
-    /// Also trace the sample's back hemisphere (about −n) into the same cell (`sides=both`).
-    pub both_sides: bool,
 }
 
 /// Sample `i` of task `t`'s triangle (needs the triangle's normal and first global id).
@@ -157,7 +155,7 @@ pub fn build_masks(
             let cell = grid.cell_of(p.position);
             let (mut v, mut o) = ([0u64; MAX_WORDS], [0u64; MAX_WORDS]);
             rays += trace_sample(vis, &p, s, r, &mut v[..words], &mut o[..words]);
-            if s.both_sides {
+            if mesh.back[k] {
                 let back = PointSample { normal: -p.normal, ..p };
                 rays += trace_sample(vis, &back, s, r, &mut v[..words], &mut o[..words]);
             }

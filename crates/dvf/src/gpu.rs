@@ -413,10 +413,12 @@ impl GpuDvf {
     /// Builds the field of `frame` as [`crate::Dvf::build`] does on the CPU (`p` with its
     /// automatic keys chosen, [`DvfParams::for_frame`]), the passes timed on `timer`. Returns
     /// once the work is submitted.
+    #[allow(clippy::too_many_arguments)]
     pub fn build(
         &mut self,
         ctx: &GpuContext,
         frame: &SceneFrame,
+        back_instances: &[u32],
         p: &DvfParams,
         seed: u64,
         frame_index: u32,
@@ -432,7 +434,7 @@ impl GpuDvf {
             self.scans = Some(ScanKernels::new(ctx, p.workgroup)?);
         }
         self.built = None;
-        let mesh = WorldMesh::gather(frame);
+        let mesh = WorldMesh::gather(frame, back_instances);
         let k = mesh.indices.len();
         let limit = u32::MAX as u64;
         if k as u64 + p.points as u64 >= limit {
@@ -478,7 +480,7 @@ impl GpuDvf {
         // Per-frame uploads and sizes (buffers grow only).
         let b = &mut self.buffers;
         let vertices: Vec<[f32; 4]> = mesh.vertices.iter().map(|v| v.extend(0.0).to_array()).collect();
-        let indices: Vec<[u32; 4]> = mesh.indices.iter().map(|t| [t[0], t[1], t[2], 0]).collect();
+        let indices: Vec<[u32; 4]> = mesh.indices.iter().zip(&mesh.back).map(|(t, &b)| [t[0], t[1], t[2], b as u32]).collect();
         let mut grew = b.vertices.upload(ctx, &vertices)? as u64;
         grew += b.indices.upload(ctx, &indices)? as u64;
         grew += b.normals.reserve(ctx, 16 * k as u64)? as u64;
@@ -492,8 +494,17 @@ impl GpuDvf {
         let scene = self.scene.as_ref().ok_or(DvfGpuError::NotBuilt)?;
         write(ctx, &b.trace, &[TraceParams { ray_count: 0, node_count: scene.node_count, zero: 0, box_exit_scale: BOX_EXIT_SCALE }])?;
         let uniform = BuildUniform {
-            counts: [k as u32, p.points, (p.rounding == Rounding::Round) as u32, (p.sampling == PointSampling::Hammersley) as u32],
-            rays: [if p.build_rays == 0 { p.rays } else { p.build_rays }, p.both_sides as u32, p.rotate_about_normal as u32, p.octahedral],
+            counts: [
+                k as u32,
+                p.points,
+                match p.rounding {
+                    Rounding::Ceil => 0,
+                    Rounding::Round => 1,
+                    Rounding::Cumulative => 2,
+                },
+                (p.sampling == PointSampling::Hammersley) as u32,
+            ],
+            rays: [if p.build_rays == 0 { p.rays } else { p.build_rays }, 0, p.rotate_about_normal as u32, p.octahedral],
             cells: [grid.dims[0], grid.dims[1], grid.dims[2], words32 as u32],
             misc: [cells as u32, frame_index, ctx.limits.max_compute_workgroups_per_dimension, 0],
             rng: {
@@ -743,7 +754,15 @@ impl GpuEnvDvf {
 
     /// Builds the field for a `width × height` frame (the automatic keys chosen as the CPU
     /// technique chooses them), and waits for it.
-    pub fn prepare_frame(&mut self, frame: &SceneFrame, width: u32, height: u32, frame_index: u32) -> Result<Stats, DvfGpuError> {
+    /// `back_instances` as [`crate::Dvf::build`]'s ([`DvfParams::back_instances`]).
+    pub fn prepare_frame(
+        &mut self,
+        frame: &SceneFrame,
+        back_instances: &[u32],
+        width: u32,
+        height: u32,
+        frame_index: u32,
+    ) -> Result<Stats, DvfGpuError> {
         let ctx = self.ctx.clone();
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, frame.scene.environment.as_ref()) {
@@ -764,7 +783,8 @@ impl GpuEnvDvf {
         let p = self.params.for_frame(width as u64 * height as u64, frame.scene.triangle_count());
         let mut timer = GpuTimer::new(&ctx, 64);
         let t = std::time::Instant::now();
-        self.dvf.build(&ctx, frame, &p, self.settings.seed, frame_index, &mut timer)?;
+        self.dvf.build(&ctx, frame, back_instances, &p, self.settings.seed, frame_index, &mut timer)?;
+        stats.metrics.push(("back_side_instances".to_owned(), back_instances.len() as f64));
         ctx.wait()?;
         stats.stage("gpu build", t.elapsed().as_secs_f64() * 1e3);
         self.times = timer.finish(&ctx)?;
@@ -878,7 +898,8 @@ impl Technique for GpuEnvDvf {
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         glimpse_render::technique::require(ctx.frame.scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
-        Ok(self.prepare_frame(&ctx.frame, ctx.width, ctx.height, ctx.frame_index)?)
+        let back = self.params.back_instances(ctx.frame.scene.instances.len(), || ctx.instances_seen_from_behind(crate::BACK_PROBE_ACROSS));
+        Ok(self.prepare_frame(&ctx.frame, &back, ctx.width, ctx.height, ctx.frame_index)?)
     }
 
     fn render(&mut self, _ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {

@@ -61,7 +61,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: unknown=skip|trace unshadowed=auto|sh|rays sides=both|front build_rays; profile=paper (sides=front)",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays; profile=paper (sides=front)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))
@@ -388,7 +388,11 @@ impl Technique for EnvDvf {
         let mask_bytes = 2 * 8 * ((p.octahedral as u64).pow(2).div_ceil(64));
         let what = format!("env-dvf: {} cells of {}² visibility masks", grid.cell_count(), p.octahedral);
         glimpse_core::memory_budget::check(what, grid.cell_count() as u64 * (mask_bytes + 1))?;
-        let dvf = Dvf::build(&ctx.frame, &ctx.tracer, &p, self.settings.seed, ctx.frame_index, reuse, &mut stats);
+        let back = self.params.back_instances(ctx.frame.scene.instances.len(), || {
+            stats.time("seen from behind", || ctx.instances_seen_from_behind(crate::BACK_PROBE_ACROSS))
+        });
+        let dvf = Dvf::build(&ctx.frame, &back, &ctx.tracer, &p, self.settings.seed, ctx.frame_index, reuse, &mut stats);
+        stats.metrics.push(("back_side_instances".to_owned(), back.len() as f64));
         stats.metrics.push(("points".to_owned(), p.points as f64));
         stats.metrics.push(("grid".to_owned(), p.grid as f64));
         stats.metrics.push(("build_rays".to_owned(), dvf.rays_traced as f64));

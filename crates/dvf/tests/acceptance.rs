@@ -74,23 +74,16 @@ struct Inputs {
 }
 
 fn inputs(ctx: &FrameContext, p: &DvfParams) -> Inputs {
-    let mesh = WorldMesh::gather(&ctx.frame);
+    let mesh = WorldMesh::gather(&ctx.frame, &p.back_instances(ctx.frame.scene.instances.len(), Vec::new));
     let (areas, normals) = areas_and_normals(&mesh);
     let (prefix, total) = exclusive_scan(&areas, p.workgroup as usize);
-    let counts: Vec<u32> = areas.iter().map(|&a| sample_count(p.points, a, total, p.rounding)).collect();
+    let counts = points::sample_counts(p.points, &areas, &prefix, total, p.rounding);
     let first_ids = prefix.iter().enumerate().map(|(k, &s)| points::first_sample_id(p.points, s, total, k)).collect();
     Inputs { tasks: points::tasks(&counts, p.task_points), mesh, normals, first_ids }
 }
 
 fn settings(p: &DvfParams, seed: u64) -> SampleSettings {
-    SampleSettings {
-        sampling: p.sampling,
-        rays: p.rays,
-        rotate_about_normal: p.rotate_about_normal,
-        seed,
-        frame_index: 0,
-        both_sides: p.both_sides,
-    }
+    SampleSettings { sampling: p.sampling, rays: p.rays, rotate_about_normal: p.rotate_about_normal, seed, frame_index: 0 }
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -104,7 +97,7 @@ fn check_01_triangle_area_and_normal() {
     assert_eq!(a, 3.0);
     assert_eq!(n, Vec3::Z);
     assert_eq!((a0, n0), (0.0, Vec3::ZERO));
-    assert_eq!(sample_count(1000, a0, 10.0, Rounding::Ceil), 0, "a degenerate triangle gets no sample");
+    assert_eq!(sample_count(1000, a0, [0.0, 0.0], 10.0, Rounding::Ceil), 0, "a degenerate triangle gets no sample");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -149,18 +142,47 @@ fn check_03_blelloch_scan_equals_sequential_scan() {
 #[test]
 fn check_04_sample_counts_ceiling_rule() {
     let mut rng = Rng::new(4, 0);
-    // Many tiny triangles and a few large ones.
-    let areas: Vec<f32> = (0..5000).map(|i| if i % 100 == 0 { 50.0 } else { 1e-4 * (1.0 + rng.next_f32()) }).collect();
-    let total: f32 = areas.iter().sum();
-    for n_p in [1000u32, 100_000] {
-        let ceil: Vec<u32> = areas.iter().map(|&a| sample_count(n_p, a, total, Rounding::Ceil)).collect();
-        let round: Vec<u32> = areas.iter().map(|&a| sample_count(n_p, a, total, Rounding::Round)).collect();
-        let (sc, sr) = (ceil.iter().map(|&c| c as u64).sum::<u64>(), round.iter().map(|&c| c as u64).sum::<u64>());
+    // Many tiny triangles and a few large ones. (The tiny ones stay above the f32 prefix's ulp,
+    // about 2.4e-4 here: below it the scan itself cannot place them, in any rounding.)
+    // (Big ones at irregular places and sizes: on a layout periodic in the share, a running
+    // total's fractions repeat, and every run of tiny triangles gets the same count.)
+    let big: Vec<bool> = (0..5000).map(|i| i == 0 || rng.next_f32() < 0.01).collect();
+    let areas: Vec<f32> = big.iter().map(|&b| if b { 40.0 + 20.0 * rng.next_f32() } else { 1e-2 * (1.0 + rng.next_f32()) }).collect();
+    let (prefix, total) = exclusive_scan(&areas, 1024);
+    let count = |n_p: u32, rounding: Rounding| points::sample_counts(n_p, &areas, &prefix, total, rounding);
+    let sum = |c: &[u32]| c.iter().map(|&c| c as u64).sum::<u64>();
+    for n_p in [1000u32, 10_000] {
+        let (ceil, round, cumulative) = (count(n_p, Rounding::Ceil), count(n_p, Rounding::Round), count(n_p, Rounding::Cumulative));
+        let (sc, sr, su) = (sum(&ceil), sum(&round), sum(&cumulative));
         let zeros_round = round.iter().filter(|&&c| c == 0).count();
-        println!("N_P = {n_p}: ceil Σ = {sc} (min {}), round Σ = {sr} with {zeros_round} triangles at 0", ceil.iter().min().unwrap());
+        // The tiny triangles' share of the samples, against their share of the area.
+        let tiny = |c: &[u32]| c.iter().zip(&big).filter(|(_, b)| !**b).map(|(&c, _)| c as f64).sum::<f64>();
+        let tiny_area = areas.iter().zip(&big).filter(|(_, b)| !**b).map(|(&a, _)| a as f64).sum::<f64>();
+        let expected = n_p as f64 * tiny_area / total as f64;
+        println!(
+            "N_P = {n_p}: ceil Σ = {sc} (min {}), round Σ = {sr} with {zeros_round} triangles at 0, cumulative Σ = {su}; \
+             the tiny triangles get {} (round), {} (cumulative) of an expected {expected:.1}",
+            ceil.iter().min().unwrap(),
+            tiny(&round),
+            tiny(&cumulative)
+        );
         assert!(ceil.iter().all(|&c| c >= 1));
         assert!(sc >= (n_p as u64).max(areas.len() as u64) && sc <= n_p as u64 + areas.len() as u64);
         assert!(zeros_round > 0);
+        // Cumulative: the budget kept, and every run of consecutive triangles (one triangle,
+        // 500 of them, any range) within one sample of its share; the tiny ones are sampled
+        // (round gives them none), within one sample per run between two big ones.
+        assert_eq!(su, n_p as u64, "cumulative total");
+        for _ in 0..2000 {
+            let i = (rng.next_f32() * 5000.0) as usize % 5000;
+            let j = (i + [1, 500, (rng.next_f32() * 5000.0) as usize][rng.next_u32() as usize % 3]).min(5000);
+            let x = n_p as f64 * areas[i..j].iter().map(|&a| a as f64).sum::<f64>() / total as f64;
+            let c = sum(&cumulative[i..j]) as f64;
+            assert!(c >= x.floor() - 1.0 && c <= x.ceil() + 1.0, "{c} samples on triangles {i}..{j}, share {x:.2}");
+        }
+        let runs = big.iter().filter(|&&b| b).count() as f64;
+        assert!(tiny(&cumulative) > 0.0 && (tiny(&cumulative) - expected).abs() <= runs);
+        assert_eq!(tiny(&round), 0.0);
     }
     // Tasks cover every sample exactly once.
     let counts = [0u32, 1, 64, 65, 130];
@@ -383,7 +405,7 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
     for unshadowed in [Unshadowed::Rays] {
         let p = DvfParams { points: 4000, rays: 32, grid: 6, unshadowed, ..DvfParams::paper() };
         let mut stats = Stats::default();
-        let field = Dvf::build(&ctx.frame, &ctx.tracer, &p, 21, 0, None, &mut stats);
+        let field = Dvf::build(&ctx.frame, &[], &ctx.tracer, &p, 21, 0, None, &mut stats);
         let inp = inputs(&ctx, &p);
         let s = settings(&p, 21);
         let rt = Runtime { dvf: &field, vis: &ctx.tracer, env, sh: &sh, unshadowed, trace_unknown: false, force_label: None };

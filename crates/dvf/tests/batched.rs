@@ -260,14 +260,7 @@ fn batched_build_samples_equal_per_ray_samples() {
         let triangles = ctx.frame.world_triangles();
         let mut rng = Rng::new(17, 3);
         for n_rays in [128u32, 100, 37] {
-            let s = SampleSettings {
-                sampling: PointSampling::Hash,
-                rays: n_rays,
-                rotate_about_normal: false,
-                seed: 1,
-                frame_index: 0,
-                both_sides: false,
-            };
+            let s = SampleSettings { sampling: PointSampling::Hash, rays: n_rays, rotate_about_normal: false, seed: 1, frame_index: 0 };
             for _ in 0..300 {
                 let t = triangles[(rng.next_f32() * triangles.len() as f32) as usize % triangles.len()];
                 let (u, v) = (rng.next_f32(), rng.next_f32());

@@ -12,7 +12,7 @@ use glimpse_dvf::grid::Grid;
 use glimpse_dvf::points::{PointSampling, Rounding, Task, first_sample_id, sample_count};
 use glimpse_dvf::scan::exclusive_scan;
 use glimpse_dvf::technique::EnvDvf;
-use glimpse_dvf::{AutoBudget, Dvf, DvfParams};
+use glimpse_dvf::{AutoBudget, Dvf, DvfParams, Sides};
 use glimpse_gpu::{GpuContext, GpuTimer, timer::format_times};
 use glimpse_render::{FrameContext, Params, Settings, Stats, Technique};
 use glimpse_scene::Scene;
@@ -46,21 +46,19 @@ struct CpuPasses {
     dvf: Dvf,
 }
 
-fn cpu_passes(ctx: &FrameContext, p: &DvfParams, seed: u64, frame_index: u32) -> CpuPasses {
-    let mesh = WorldMesh::gather(&ctx.frame);
+fn cpu_passes(ctx: &FrameContext, back: &[u32], p: &DvfParams, seed: u64, frame_index: u32) -> CpuPasses {
+    let mesh = WorldMesh::gather(&ctx.frame, back);
     let (areas, normals) = areas_and_normals(&mesh);
     let (prefix, total) = exclusive_scan(&areas, p.workgroup as usize);
     let counts: Vec<(u32, u64)> = (0..areas.len())
-        .map(|k| (sample_count(p.points, areas[k], total, p.rounding), first_sample_id(p.points, prefix[k], total, k)))
+        .map(|k| {
+            (
+                sample_count(p.points, areas[k], [prefix[k], prefix.get(k + 1).copied().unwrap_or(total)], total, p.rounding),
+                first_sample_id(p.points, prefix[k], total, k),
+            )
+        })
         .collect();
-    let settings = SampleSettings {
-        sampling: p.sampling,
-        rays: p.rays,
-        rotate_about_normal: p.rotate_about_normal,
-        seed,
-        frame_index,
-        both_sides: p.both_sides,
-    };
+    let settings = SampleSettings { sampling: p.sampling, rays: p.rays, rotate_about_normal: p.rotate_about_normal, seed, frame_index };
     let grid = Grid::from_bounds(ctx.frame.bounds, p.grid);
     let mut samples = Vec::new();
     for (k, &(count, first)) in counts.iter().enumerate() {
@@ -70,7 +68,7 @@ fn cpu_passes(ctx: &FrameContext, p: &DvfParams, seed: u64, frame_index: u32) ->
             samples.push((s, grid.cell_of(s.position)));
         }
     }
-    let dvf = Dvf::build(&ctx.frame, &ctx.tracer, p, seed, frame_index, None, &mut Stats::default());
+    let dvf = Dvf::build(&ctx.frame, back, &ctx.tracer, p, seed, frame_index, None, &mut Stats::default());
     CpuPasses { areas, normals, prefix, total, counts, samples, dvf }
 }
 
@@ -84,9 +82,11 @@ fn compare_build(
     seed: u64,
     frame_index: u32,
 ) -> (usize, usize) {
-    let cpu = cpu_passes(frame, p, seed, frame_index);
+    // `sides=seen` variants stand in instance 0 for the camera's probe.
+    let back = p.back_instances(frame.frame.scene.instances.len(), || vec![0]);
+    let cpu = cpu_passes(frame, &back, p, seed, frame_index);
     let mut timer = GpuTimer::new(ctx, 64);
-    gpu.build(ctx, &frame.frame, p, seed, frame_index, &mut timer).unwrap();
+    gpu.build(ctx, &frame.frame, &back, p, seed, frame_index, &mut timer).unwrap();
     ctx.wait().unwrap();
     let times = timer.finish(ctx).unwrap();
     let (areas, prefix, total) = gpu.areas(ctx).unwrap();
@@ -153,14 +153,19 @@ fn passes_equal_the_cpu_bit_for_bit() {
         (
             "courtyard hammersley round sides=both",
             &yard,
-            DvfParams { sampling: PointSampling::Hammersley, rounding: Rounding::Round, both_sides: true, ..small(2000, 16, 64) },
+            DvfParams { sampling: PointSampling::Hammersley, rounding: Rounding::Round, sides: Sides::Both, ..small(2000, 16, 64) },
         ),
         (
             "courtyard rotation=normal octahedral=16",
             &yard,
             DvfParams { rotate_about_normal: true, octahedral: 16, ..small(2000, 12, 1024) },
         ),
-        ("cornell hash ceil wg1024 sides=both", &box_, DvfParams { both_sides: true, ..small(3000, 16, 1024) }),
+        ("cornell hash ceil wg1024 sides=both", &box_, DvfParams { sides: Sides::Both, ..small(3000, 16, 1024) }),
+        (
+            "cornell cumulative, back sides on instance 0 only",
+            &box_,
+            DvfParams { rounding: Rounding::Cumulative, sides: Sides::Seen, ..small(3000, 16, 64) },
+        ),
         (
             "cornell hammersley build_rays=24",
             &box_,
@@ -259,7 +264,7 @@ fn bad_settings_are_errors() {
         ("points=2^32-1", small(u32::MAX - 1, 4, 64)),
     ];
     for (what, p) in cases {
-        let e = gpu.build(&ctx, &frame, &p, 0, 0, &mut timer).unwrap_err();
+        let e = gpu.build(&ctx, &frame, &[], &p, 0, 0, &mut timer).unwrap_err();
         println!("{what}: {e}");
     }
     ctx.check().unwrap();

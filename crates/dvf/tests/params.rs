@@ -2,7 +2,7 @@
 //! are common in real scenes), traces rays no sample saw, and sizes the sample budget from the
 //! frame; the paper's profile is its Sponza configuration; an explicit key overrides either.
 
-use glimpse_dvf::{AutoBudget, DvfParams, Rounding};
+use glimpse_dvf::{AutoBudget, DvfParams, Rounding, Sides};
 use glimpse_render::Params;
 
 fn read(pairs: &[&str]) -> DvfParams {
@@ -12,13 +12,19 @@ fn read(pairs: &[&str]) -> DvfParams {
 #[test]
 fn defaults_and_the_paper_profile() {
     let ours = read(&[]);
-    assert!(ours.both_sides && ours.trace_unknown && ours.auto == AutoBudget::ALL);
+    assert!(ours.sides == Sides::Both && ours.trace_unknown && ours.auto == AutoBudget::ALL);
     let paper = read(&["profile=paper"]);
     assert_eq!((paper.points, paper.grid, paper.rounding), (10_000_000, 77, Rounding::Ceil));
-    assert!(!paper.both_sides && !paper.trace_unknown && paper.auto == AutoBudget::default());
+    assert!(paper.sides == Sides::Front && !paper.trace_unknown && paper.auto == AutoBudget::default());
     assert_eq!(paper, DvfParams::paper(), "the profile is the paper's settings, nothing else");
-    assert!(!read(&["sides=front"]).both_sides);
-    assert!(read(&["profile=paper", "sides=both"]).both_sides);
+    let (front, seen) = (read(&["sides=front"]), read(&["sides=seen"]));
+    assert_eq!((front.sides, seen.sides, read(&["profile=paper", "sides=both"]).sides), (Sides::Front, Sides::Seen, Sides::Both));
+    // Which instances trace their back hemisphere: all, none, or the camera probe's.
+    assert_eq!(ours.back_instances(3, || vec![2]), vec![0, 1, 2]);
+    assert_eq!(front.back_instances(3, || vec![2]), Vec::<u32>::new());
+    assert_eq!(paper.back_instances(3, || vec![2]), Vec::<u32>::new());
+    assert_eq!(seen.back_instances(4, || vec![2]), vec![2]);
+    assert!(DvfParams::default().read(&Params::parse(&["sides=auto"]).unwrap()).is_err());
     assert!(!read(&["unknown=skip"]).trace_unknown);
     // An explicit number turns that key's automatic choice off, and only that one.
     let fixed = read(&["points=40000"]);
@@ -37,8 +43,10 @@ fn the_automatic_budget_follows_the_frame() {
     assert_eq!(auto.for_frame(64 * 64, 12).points, 10_000);
     assert_eq!(auto.for_frame(1 << 40, 12).points, 10_000_000);
     assert_eq!(auto.for_frame(1 << 40, 12).grid, 77);
-    // More triangles than samples: rounding, not one sample per triangle.
-    assert_eq!(auto.for_frame(320 * 180, 1_041_765).rounding, Rounding::Round);
+    // More triangles than samples: the rounded running total, not one sample per triangle.
+    assert_eq!(auto.for_frame(320 * 180, 1_041_765).rounding, Rounding::Cumulative);
+    assert_eq!(read(&["rounding=round"]).for_frame(320 * 180, 1_041_765).rounding, Rounding::Round);
+    assert_eq!(read(&["rounding=cumulative"]).for_frame(64, 2).rounding, Rounding::Cumulative);
     // Explicit keys are kept.
     let fixed = read(&["points=5000", "grid=12", "rounding=ceil"]).for_frame(1280 * 720, 2_000_000);
     assert_eq!((fixed.points, fixed.grid, fixed.rounding), (5000, 12, Rounding::Ceil));

@@ -42,6 +42,29 @@ impl<'a> FrameContext<'a> {
         self.frame_index = frame_index;
     }
 
+    /// The instances whose back faces (against their winding) the camera sees, sorted, from
+    /// `across` primary rays across the image (and as many down as its aspect gives): the
+    /// double-sided surfaces in view (leaves, cloth, a room's outward-facing walls). Cheap
+    /// (128 across: about 10K rays); an instance seen from behind in fewer pixels than the
+    /// probe's spacing can be missed.
+    pub fn instances_seen_from_behind(&self, across: u32) -> Vec<u32> {
+        use rayon::prelude::*;
+        let w = across.max(1);
+        let h = ((w as f32 * self.height as f32 / self.width.max(1) as f32).round() as u32).max(1);
+        let mut seen: Vec<u32> = (0..w * h)
+            .into_par_iter()
+            .filter_map(|i| {
+                let ray = self.camera.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5, w, h);
+                let hit = self.tracer.closest_hit(&ray, f32::INFINITY)?;
+                let sp = glimpse_trace::SurfacePoint::from_hit(&self.frame, &ray, &hit);
+                (!sp.front_face).then_some(sp.instance)
+            })
+            .collect();
+        seen.sort_unstable();
+        seen.dedup();
+        seen
+    }
+
     /// The GBuffer of primary sample [`FrameContext::film_pass`] under the film's filter.
     pub fn gbuffer(&self) -> GBuffer {
         GBuffer::sampled(&self.frame, &self.tracer, &self.camera, self.width, self.height, self.film.filter, self.film_pass)

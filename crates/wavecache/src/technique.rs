@@ -82,26 +82,6 @@ pub fn clear_coat_fresnel(cos_oh: f32, gamma: f32) -> f32 {
     (0.04 + 0.96 * (1.0 - cos_oh).clamp(0.0, 1.0).powi(5)) * gamma
 }
 
-/// The instances whose back faces the camera sees, from 128 primary rays across (the image's
-/// aspect): their cache points are made on both sides ([`WavecacheParams::back_sides`]).
-fn back_sides_seen(ctx: &FrameContext) -> Vec<u32> {
-    use rayon::prelude::*;
-    let w = 128u32;
-    let h = ((w as f32 * ctx.height as f32 / ctx.width.max(1) as f32).round() as u32).max(1);
-    let mut seen: Vec<u32> = (0..w * h)
-        .into_par_iter()
-        .filter_map(|i| {
-            let ray = ctx.camera.ray((i % w) as f32 + 0.5, (i / w) as f32 + 0.5, w, h);
-            let hit = ctx.tracer.closest_hit(&ray, f32::INFINITY)?;
-            let sp = glimpse_trace::SurfacePoint::from_hit(&ctx.frame, &ray, &hit);
-            (!sp.front_face).then_some(sp.instance)
-        })
-        .collect();
-    seen.sort_unstable();
-    seen.dedup();
-    seen
-}
-
 impl Wavecache {
     pub fn info() -> TechniqueInfo {
         TechniqueInfo {
@@ -132,7 +112,7 @@ impl Wavecache {
 
     fn ensure_cache(&mut self, ctx: &FrameContext, stats: &mut Stats) -> Result<(), RenderError> {
         let mut params = self.params.clone();
-        params.back_sides = stats.time("back sides", || back_sides_seen(ctx));
+        params.back_sides = stats.time("back sides", || ctx.instances_seen_from_behind(128));
         stats.metrics.push(("two_sided_instances".to_owned(), params.back_sides.len() as f64));
         let key = stats.time("cache key", || cache_key(&ctx.frame, &params, self.settings.seed));
         if self.cache.as_ref().is_some_and(|c| c.key == key) {

@@ -4,9 +4,9 @@
 // exact.wgsl.
 
 struct Build {
-    // triangles, N_P, rounding (0 ceil, 1 round), sampling (0 hash, 1 Hammersley)
+    // triangles, N_P, rounding (0 ceil, 1 round, 2 cumulative), sampling (0 hash, 1 Hammersley)
     counts: vec4<u32>,
-    // rays per sample, both sides, rotation about the normal, octahedral resolution R
+    // rays per sample, (unused), rotation about the normal, octahedral resolution R
     rays: vec4<u32>,
     // grid dims x, y, z; u32 words per mask
     cells: vec4<u32>,
@@ -104,7 +104,17 @@ fn counts(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups
     var count = 0u;
     if !(total <= 0.0 || area <= 0.0) {
         let x = points * f64(area) / f64(total);
-        count = u32(select(ceil(x), round_half_away(x), build.counts.z == 1u));
+        if build.counts.z == 2u {
+            // The rounded running total, from the exclusive prefixes S_k and S_{k+1} (points.rs).
+            var next = total;
+            if k + 1u < build.counts.x {
+                next = area_scan[k + 1u];
+            }
+            let here = round_half_away(points * f64(area_scan[k]) / f64(total));
+            count = u32(max(round_half_away(points * f64(next) / f64(total)) - here, f64(0.0)));
+        } else {
+            count = u32(select(ceil(x), round_half_away(x), build.counts.z == 1u));
+        }
     }
     var first = 0u;
     if total > 0.0 {
@@ -228,7 +238,7 @@ fn samples(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroup
     samples_out[2u * s + 1u] = vec4<u32>(bitcast<vec2<u32>>(p.shift), p.triangle, p.index);
 }
 
-// CS4 proper: each sample's N_r rays (and its back hemisphere's with `sides=both`), traced
+// CS4 proper: each sample's N_r rays (and its back hemisphere's where `sides` asks), traced
 // exactly, OR-ed into the cell's maps: a hit sets the occlusion bit, a miss the visibility bit.
 @compute @workgroup_size(64)
 fn field(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups) groups: vec3<u32>) {
@@ -240,7 +250,8 @@ fn field(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_workgroups)
     let r = build.rays.w;
     let words = build.cells.w;
     let occluded_base = build.misc.x * words;
-    let sides = 1u + build.rays.y;
+    // The index's w: whether this triangle's samples also trace the back hemisphere (`sides`).
+    let sides = 1u + indices[p.triangle].w;
     for (var side = 0u; side < sides; side++) {
         let n = select(p.normal, -p.normal, side == 1u);
         let rs = ray_set(n, build.rays.x, p.shift, build.rays.z == 1u);
