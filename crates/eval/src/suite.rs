@@ -306,8 +306,17 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         && checks.iter().any(|c| c.what.starts_with("RMSE vs env-exact") && !c.pass)
     {
         let floor = if points as u32 <= *glimpse_dvf::AUTO_POINTS.start() { ", the floor" } else { "" };
+        // With the SH's E_unshad the difference from env-exact also holds the N_r rays' own
+        // noise in the unshadowed term, which the SH does not have.
+        let sh = match (m("unshadowed_rays"), m("map_noise")) {
+            (Some(r), Some(noise)) if r == 0.0 => format!(
+                "; E_unshad from the map's SH (the relative noise of its N_r rays, {noise:.3}, is ≤ {}): this RMSE also holds env-exact's own noise in the unshadowed term, which the SH does not have (unshadowed=rays removes it: docs/techniques/dvf.md)",
+                glimpse_dvf::SH_MAX_RELATIVE_NOISE
+            ),
+            _ => String::new(),
+        };
         reasons.push(format!(
-            "RMSE {rmse:.4} at the automatic sample budget for {pixels} pixels: {points:.0} points{floor}, grid {grid:.0} (points=auto follows the image size; the error falls with more points: docs/suite.md)"
+            "RMSE {rmse:.4} at the automatic sample budget for {pixels} pixels: {points:.0} points{floor}, grid {grid:.0} (points=auto follows the image size){sh}"
         ));
     }
     if let (Some(eps), Some(cell)) = (m("eps_s_pct").filter(|&e| run.technique == "lights-voxarray" && e > 3.0), m("cell_m")) {
@@ -820,6 +829,14 @@ mod tests {
         let dvf = [("map_noise", 0.05), ("rmse_same_samples", 0.02), ("points", 10_000.0), ("grid", 20.0)];
         let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &dvf), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("RMSE 0.0200") && r.contains("10000 points, the floor")), "{:?}", c.reasons);
+        assert!(!c.reasons.iter().any(|r| r.contains("SH")), "no E_unshad source reported: {:?}", c.reasons);
+        // With the SH's E_unshad the reason says that the RMSE holds the rays' own noise.
+        let sh = [("map_noise", 0.055), ("unshadowed_rays", 0.0), ("rmse_same_samples", 0.0074), ("points", 10_000.0), ("grid", 20.0)];
+        let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &sh), "s", 6000, 4, 64);
+        assert!(c.reasons.iter().any(|r| r.contains("RMSE 0.0074") && r.contains("map's SH") && r.contains("0.055")), "{:?}", c.reasons);
+        let rays = [("map_noise", 0.055), ("unshadowed_rays", 1.0), ("rmse_same_samples", 0.0074), ("points", 10_000.0), ("grid", 20.0)];
+        let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &rays), "s", 6000, 4, 64);
+        assert!(!c.reasons.iter().any(|r| r.contains("map's SH")), "{:?}", c.reasons);
     }
 
     /// The VPL methods run at the thesis' light-cut size unless the suite asks for more; their
