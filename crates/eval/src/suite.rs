@@ -317,7 +317,7 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         // With the SH's E_unshad the difference from env-exact also holds the N_r rays' own
         // noise in the unshadowed term, which the SH does not have.
         let sh = match (m("unshadowed_rays"), m("map_noise")) {
-            (Some(r), Some(noise)) if r == 0.0 => format!(
+            (Some(0.0), Some(noise)) => format!(
                 "; E_unshad from the map's SH (the relative noise of its N_r rays, {noise:.3}, is ≤ {}): this RMSE also holds env-exact's own noise in the unshadowed term, which the SH does not have (unshadowed=rays removes it: docs/techniques/dvf.md)",
                 glimpse_dvf::SH_MAX_RELATIVE_NOISE
             ),
@@ -924,9 +924,8 @@ mod tests {
         // A lone firefly of the reference in a dark area: the technique, dark there, is not black
         // where lit; a two-pixel lit area is still judged.
         let dark = Image::from_fn(16, 16, |_, _| Vec3::splat(0.01));
-        let fireflies = Image::from_fn(16, 16, |x, y| {
-            Vec3::splat(if (x, y) == (4, 4) || ((10..12).contains(&x) && y == 10) { 50.0 } else { 0.01 })
-        });
+        let fireflies =
+            Image::from_fn(16, 16, |x, y| Vec3::splat(if (x, y) == (4, 4) || ((10..12).contains(&x) && y == 10) { 50.0 } else { 0.01 }));
         let f_fly = PixelFaults::count(&dark, &fireflies);
         println!("under fireflies {f_fly:?}");
         assert!(f_fly.black_where_lit > 0 && f_fly.black_where_lit <= 12, "only around the two-pixel area: {f_fly:?}");
