@@ -898,8 +898,7 @@ impl Technique for GpuEnvDvf {
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         glimpse_render::technique::require(ctx.frame.scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
-        let back = self.params.back_instances(ctx.frame.scene.instances.len(), || ctx.instances_seen_from_behind(crate::BACK_PROBE_ACROSS));
-        Ok(self.prepare_frame(&ctx.frame, &back, ctx.width, ctx.height, ctx.frame_index)?)
+        Ok(self.prepare_frame(&ctx.frame, &self.params.back_instances_in(ctx), ctx.width, ctx.height, ctx.frame_index)?)
     }
 
     fn render(&mut self, _ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {

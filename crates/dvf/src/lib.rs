@@ -283,6 +283,12 @@ impl DvfParams {
         }
     }
 
+    /// [`Self::back_instances`] for a frame: `sides=seen` probes its camera with
+    /// [`BACK_PROBE_ACROSS`] rays across.
+    pub fn back_instances_in(&self, ctx: &glimpse_render::FrameContext) -> Vec<u32> {
+        self.back_instances(ctx.frame.scene.instances.len(), || ctx.instances_seen_from_behind(BACK_PROBE_ACROSS))
+    }
+
     /// The parameters for a frame of `pixels` pixels over `triangles` triangles, with the
     /// automatic keys chosen:
     /// - N_P = pixels / [`PIXELS_PER_POINT`], within [`AUTO_POINTS`]: the build's rays

@@ -388,9 +388,7 @@ impl Technique for EnvDvf {
         let mask_bytes = 2 * 8 * ((p.octahedral as u64).pow(2).div_ceil(64));
         let what = format!("env-dvf: {} cells of {}² visibility masks", grid.cell_count(), p.octahedral);
         glimpse_core::memory_budget::check(what, grid.cell_count() as u64 * (mask_bytes + 1))?;
-        let back = self.params.back_instances(ctx.frame.scene.instances.len(), || {
-            stats.time("seen from behind", || ctx.instances_seen_from_behind(crate::BACK_PROBE_ACROSS))
-        });
+        let back = stats.time("back sides", || self.params.back_instances_in(ctx));
         let dvf = Dvf::build(&ctx.frame, &back, &ctx.tracer, &p, self.settings.seed, ctx.frame_index, reuse, &mut stats);
         stats.metrics.push(("back_side_instances".to_owned(), back.len() as f64));
         stats.metrics.push(("points".to_owned(), p.points as f64));

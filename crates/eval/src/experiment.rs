@@ -141,9 +141,14 @@ pub fn steady_render(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer:
         let mut image = ctx.image();
         passes.push(technique.render(ctx, gbuffer, &mut image)?);
     }
-    passes.sort_by(|a, b| a.total_ms().total_cmp(&b.total_ms()));
-    let render = passes.swap_remove(passes.len() / 2);
+    let render = median_by_ms(passes, Stats::total_ms);
     Ok(Rendered { render, ..first })
+}
+
+/// The item whose time is the median (the upper one of an even count); `items` is not empty.
+fn median_by_ms<T>(mut items: Vec<T>, ms: impl Fn(&T) -> f64) -> T {
+    items.sort_by(|a, b| ms(a).total_cmp(&ms(b)));
+    items.swap_remove(items.len() / 2)
 }
 
 /// `frames` frames of the same (static) time with frame indices 0..frames, as a renderer uses a
@@ -160,7 +165,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
     let frames = frames.max(1);
     let mut sum: Option<Image> = None;
     let mut last = None;
-    let mut timed: Vec<(f64, Stats, Stats)> = Vec::new();
+    let mut timed: Vec<(Stats, Stats)> = Vec::new();
     for i in 0..frames {
         ctx.frame_index = i;
         ctx.film_pass = i;
@@ -175,7 +180,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
             total.pixels.iter_mut().zip(&r.image.pixels).for_each(|(t, p)| *t += *p);
         }
         if i > 0 || frames == 1 {
-            timed.push((r.prepare.total_ms() + r.render.total_ms(), r.prepare.clone(), r.render.clone()));
+            timed.push((r.prepare.clone(), r.render.clone()));
         }
         last = Some(r);
     }
@@ -183,9 +188,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
     if let Some(total) = sum {
         r.image.pixels = total.pixels.into_iter().map(|p| p / frames as f32).collect();
     }
-    timed.sort_by(|a, b| a.0.total_cmp(&b.0));
-    let median = timed.swap_remove(timed.len() / 2);
-    (r.prepare, r.render) = (median.1, median.2);
+    (r.prepare, r.render) = median_by_ms(timed, |(prepare, render)| prepare.total_ms() + render.total_ms());
     Ok(r)
 }
 

@@ -428,15 +428,14 @@ impl<'a> Runtime<'a> {
             }
             Class::Glossy => {
                 let ratio = texel_ratio(s.base, self.frame.scene.materials[s.material as usize].base_color);
+                // Per shaded point: ω_o in the pixel's frame, and its mirror direction about ns.
+                let (wo_pixel, r) = (map_frame(ns).to_local(wo), bsdf::reflect(wo, ns));
                 let radiance = |p: &CachePoint| {
                     let np = Vec3::from(p.shading_normal);
                     let wo_local = match self.params.wo_frame {
-                        WoFrame::Pixel => map_frame(ns).to_local(wo),
+                        WoFrame::Pixel => wo_pixel,
                         WoFrame::Point => map_frame(np).to_local(wo),
-                        WoFrame::Reflect => {
-                            let r = bsdf::reflect(wo, ns);
-                            map_frame(np).to_local(bsdf::reflect(r, np))
-                        }
+                        WoFrame::Reflect => map_frame(np).to_local(bsdf::reflect(r, np)),
                     };
                     self.glossy(s.material, wo_local, p.payload)
                 };
