@@ -10,7 +10,9 @@
 //! Choices where the paper is silent (spec §5.5–5.7):
 //! - a radiance texel holds the mean incident radiance over the texel (stratified samples, uniform
 //!   in the texel's face area, weighted by the cube Jacobian / ΔΩ) — the ΔΩ is on the BRDF side;
-//!   directions below the geometric surface carry nothing (the ground truth's rule);
+//!   directions below the geometric surface carry nothing (the ground truth's rule); the emission
+//!   those samples find is combined with light samples splatted into the texels (ours,
+//!   `texel_light_samples`; [`Integrator::radiance_map`]);
 //! - irradiance: the same integral ∫ L cos dω is estimated with NEE + MIS at the point (a white
 //!   Lambertian vertex, E = π L_o) instead of summing a traced map — same expectation, far less
 //!   variance for the same rays; punctual lights are left out at the point itself (they are
@@ -29,7 +31,7 @@ use crate::{Class, WavecacheParams};
 use bytemuck::{Pod, Zeroable};
 use glimpse_core::{Frame, Ray, Rng, Vec2, Vec3, is_finite3, luminance};
 use glimpse_render::bsdf::BrdfModel;
-use glimpse_render::direct::EmitterIndex;
+use glimpse_render::direct::{EmitterIndex, sample_area_light};
 use glimpse_render::pt::{PathIntegrator, PathStart, PathVertex};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::{ExactTracer, SurfacePoint};
@@ -88,19 +90,35 @@ impl<'a> Integrator<'a> {
 
     /// Radiance arriving along `ray` (emission of the first hit, or the environment, included).
     pub fn radiance_along(&self, ray: &Ray, rng: &mut Rng) -> (Vec3, u64) {
+        let a = self.arrival(ray, rng);
+        (a.emitted + a.reflected, a.rays)
+    }
+
+    /// What arrives along `ray`, split for multiple importance sampling against light samples:
+    /// the first hit's emission (or the environment on a miss) with the densities the light
+    /// samplers give its direction, and the light the hit reflects.
+    pub fn arrival(&self, ray: &Ray, rng: &mut Rng) -> Arrival {
         let env = self.frame.scene.environment.as_ref();
         let Some(hit) = self.tracer.closest_hit(ray, f32::INFINITY) else {
-            return (env.map_or(Vec3::ZERO, |e| e.radiance(ray.dir)), 1);
+            let (emitted, env_pdf) = env.map_or((Vec3::ZERO, 0.0), |e| (e.radiance(ray.dir), e.pdf(ray.dir)));
+            return Arrival { emitted, env_pdf, rays: 1, ..Default::default() };
         };
         let sp = SurfacePoint::from_hit(self.frame, ray, &hit);
-        let le = sp.emission(self.frame);
-        if self.max_depth < 2 {
-            return (le, 1);
+        let emitted = sp.emission(self.frame);
+        let area_pdf = if emitted.max_element() > 0.0 {
+            self.emitters.pdf(self.frame, hit.instance, hit.triangle, hit.t, sp.normal.dot(-ray.dir).abs())
+        } else {
+            0.0
+        };
+        let mut a = Arrival { emitted, area_pdf, rays: 1, ..Default::default() };
+        if self.max_depth >= 2 {
+            // The hit is the path's second vertex (the cache point is the first).
+            let start = PathStart { depth: 2, model: None, punctual: true };
+            let (l, rays) = self.pt().path(PathVertex::of(self.frame, &sp), -ray.dir, start, rng);
+            a.reflected = l;
+            a.rays += rays;
         }
-        // The hit is the path's second vertex (the cache point is the first).
-        let start = PathStart { depth: 2, model: None, punctual: true };
-        let (l, rays) = self.pt().path(PathVertex::of(self.frame, &sp), -ray.dir, start, rng);
-        (le + l, rays + 1)
+        a
     }
 
     /// Irradiance ∫ L cos dω at a cache point without the direct
@@ -125,21 +143,58 @@ impl<'a> Integrator<'a> {
     }
 
     /// The incident-radiance half-cube map (mean radiance per texel, row-major N×N) at a point
-    /// `point` whose map frame is `frame` (z = its shading normal).
-    pub fn radiance_map(&self, point: &SurfaceSample, frame: &Frame, res: u32, samples: u32, rng: &mut Rng) -> (Vec<[f64; 3]>, u64) {
+    /// `point` whose map frame is `frame` (z = its shading normal), from two strategies:
+    /// - `samples` rays per texel, stratified, uniform in the texel's face area (density
+    ///   1 / (face area × Jacobian) in solid angle), each returning its hit's emission and the
+    ///   light the hit reflects ([`Self::arrival`]);
+    /// - `light_samples` × the texels light samples for the whole map, shared by the area lights
+    ///   and the environment, each a shadow ray whose light lands in the texel of its direction.
+    ///
+    /// Emission found either way is weighted by the balance heuristic over the three densities,
+    /// so a texel's estimate is Σ L_e / (n_texel p_texel + n_area p_area + n_env p_env) + the
+    /// reflected light's plain estimate: unbiased, and a small bright source inside one texel
+    /// gets most of its samples from the light samplers.
+    pub fn radiance_map(
+        &self,
+        point: &SurfaceSample,
+        frame: &Frame,
+        res: u32,
+        samples: u32,
+        light_samples: u32,
+        rng: &mut Rng,
+    ) -> (Vec<[f64; 3]>, u64) {
         let h = HalfCube::new(res);
         let k = (samples as f32).sqrt().ceil().max(1.0) as u32; // strata per axis
         let s_count = samples.max(1);
         let texel_area = (4.0 / res as f64).powi(2);
+        let env = self.frame.scene.environment.as_ref();
+        let has_area = self.frame.emissive_distribution.is_some();
+        // Light samples per strategy: the map's share split between the lights there are.
+        let live_texels = (0..res).flat_map(|y| (0..res).map(move |x| (x, y))).filter(|&(x, y)| h.solid_angle(x, y) > 0.0).count();
+        let strategies = has_area as u64 + env.is_some() as u64;
+        let per_light = if strategies == 0 { 0 } else { (light_samples as u64 * live_texels as u64).div_ceil(strategies) };
+        let (n_area, n_env) = (if has_area { per_light } else { 0 }, if env.is_some() { per_light } else { 0 });
+        // n_texel p_texel + n_area p_area + n_env p_env at a direction (the texel strategy's
+        // density from the Jacobian at the direction's face coordinates).
+        let denominator = |local: Vec3, area_pdf: f32, env_pdf: f32| -> f64 {
+            let j = HalfCube::jacobian(HalfCube::uv_of(local)) as f64;
+            let texel = if j > 0.0 { s_count as f64 / (texel_area * j) } else { 0.0 };
+            texel + n_area as f64 * area_pdf as f64 + n_env as f64 * env_pdf as f64
+        };
         let mut rays = 0;
-        let mut img = vec![[0.0f64; 3]; h.texels()];
+        // Per texel: the estimate of ∫_texel L dω.
+        let mut integral = vec![[0.0f64; 3]; h.texels()];
+        let mut add = |x: u32, y: u32, l: Vec3, w: f64| {
+            let t = &mut integral[(y * res + x) as usize];
+            for c in 0..3 {
+                t[c] += l[c] as f64 * w;
+            }
+        };
         for y in 0..res {
             for x in 0..res {
-                let d_omega = h.solid_angle(x, y);
-                if d_omega <= 0.0 {
+                if h.solid_angle(x, y) <= 0.0 {
                     continue;
                 }
-                let mut sum = [0.0f64; 3];
                 for s in 0..s_count {
                     // Stratified on a k×k grid (the first `samples` strata in a random rotation).
                     let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
@@ -152,22 +207,74 @@ impl<'a> Integrator<'a> {
                     if dir.dot(point.normal) <= 0.0 {
                         continue;
                     }
-                    let (l, r) = self.radiance_along(&Ray::spawn(point.position, point.normal, point.error_scale, dir), rng);
-                    rays += r;
-                    if !is_finite3(l) {
+                    let a = self.arrival(&Ray::spawn(point.position, point.normal, point.error_scale, dir), rng);
+                    rays += a.rays;
+                    if !is_finite3(a.emitted) || !is_finite3(a.reflected) {
                         continue;
                     }
-                    let w = HalfCube::jacobian(uv) as f64;
-                    for c in 0..3 {
-                        sum[c] += l[c] as f64 * w;
+                    add(x, y, a.reflected, HalfCube::jacobian(uv) as f64 * texel_area / s_count as f64);
+                    if a.emitted.max_element() > 0.0 {
+                        add(x, y, a.emitted, 1.0 / denominator(local, a.area_pdf, a.env_pdf));
                     }
                 }
-                let scale = texel_area / s_count as f64 / d_omega;
-                img[(y * res + x) as usize] = sum.map(|v| v * scale);
             }
         }
+        // The light samples: a direction, its light if unoccluded, into its texel.
+        let mut splat = |dir: Vec3, le: Vec3, area_pdf: f32, env_pdf: f32, shadow: &Ray, t_max: f32, rays: &mut u64| {
+            let local = frame.to_local(dir);
+            if local.z <= 0.0 || dir.dot(point.normal) <= 0.0 || le.max_element() <= 0.0 || !is_finite3(le) {
+                return;
+            }
+            *rays += 1;
+            if self.tracer.occluded(shadow, t_max) {
+                return;
+            }
+            let (x, y) = h.texel_of(local);
+            add(x, y, le, 1.0 / denominator(local, area_pdf, env_pdf));
+        };
+        for _ in 0..n_area {
+            let (u_pick, u) = (rng.next_f32(), rng.next_2d());
+            if let Some(ls) = sample_area_light(self.frame, point.position, point.normal, point.error_scale, u_pick, u) {
+                splat(ls.wi, ls.radiance, ls.pdf, 0.0, &ls.shadow, ls.t_max, &mut rays);
+            }
+        }
+        if let Some(env) = env {
+            for _ in 0..n_env {
+                let (d, le, pdf) = env.sample(rng.next_2d());
+                if pdf <= 0.0 {
+                    continue;
+                }
+                // Each light's emission is its own integrand, sampled by the texels and by its own
+                // sampler: the environment's light is weighed against the texels alone (an area
+                // light in the way occludes it), as the area lights' is ([`Self::arrival`] gives
+                // a miss no area density and a hit no environment density).
+                let shadow = Ray::spawn(point.position, point.normal, point.error_scale, d);
+                splat(d, le, 0.0, pdf, &shadow, f32::INFINITY, &mut rays);
+            }
+        }
+        let img = (0..h.texels())
+            .map(|t| {
+                let (x, y) = (t as u32 % res, t as u32 / res);
+                let d_omega = h.solid_angle(x, y);
+                if d_omega > 0.0 { integral[t].map(|v| v / d_omega) } else { [0.0; 3] }
+            })
+            .collect();
         (img, rays)
     }
+}
+
+/// What arrives at a cache point along one ray ([`Integrator::arrival`]).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Arrival {
+    /// The first hit's emission, or the environment's radiance on a miss.
+    pub emitted: Vec3,
+    /// The area-light sampler's solid-angle density of the ray's direction (0 unless it hit an emitter).
+    pub area_pdf: f32,
+    /// The environment sampler's density of the ray's direction (0 unless it escaped).
+    pub env_pdf: f32,
+    /// The light the first hit reflects along the ray.
+    pub reflected: Vec3,
+    pub rays: u64,
 }
 
 /// Probe rays of [`Integrator::enclosed_share`].
@@ -253,7 +360,7 @@ pub fn bake_points(
             let out = match class {
                 Class::Glossy => {
                     let frame = crate::halfcube::map_frame(s.shading_normal);
-                    let (img, rays) = integ.radiance_map(s, &frame, map_res, p.texel_samples, &mut rng);
+                    let (img, rays) = integ.radiance_map(s, &frame, map_res, p.texel_samples, p.texel_light_samples, &mut rng);
                     let mut nodes = Vec::new();
                     let t = haar::build(&img, map_res, p.radiance_beta as f64, &mut nodes);
                     let e = luminance(nodes[0].c());

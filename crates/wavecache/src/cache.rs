@@ -39,6 +39,12 @@ pub struct WaveCache {
     pub key: u64,
     /// Per material (res = 0: not tabulated).
     pub brdf_tables: Vec<BrdfTable>,
+    /// Per material: its BRDF with a black base colour, for glossy materials whose base colour
+    /// is textured (res = 0: none). The BRDF is affine in the base colour per channel (the
+    /// diffuse lobe is linear in it, Schlick's F0 and a conductor's F are), so a texel's BRDF is
+    /// black + texel / factor × (factor's − black's) exactly, and the product with the radiance
+    /// is blended the same way ([`crate::technique::Runtime::cached`]).
+    pub brdf_black: Vec<BrdfTable>,
     pub brdf_trees: Vec<TreeRef>,
     pub brdf_nodes: Vec<HaarNode>,
     /// Per material, [`ALBEDO_BINS`] × (A_d, A_s).
@@ -70,7 +76,7 @@ impl WaveCache {
 
     /// Bytes of the BRDF part (tables and trees) — Table 3's "pre-storage BRDFs".
     pub fn brdf_bytes(&self) -> usize {
-        bytes(&self.brdf_tables) + bytes(&self.brdf_trees) + bytes(&self.brdf_nodes) + bytes(&self.albedo)
+        bytes(&self.brdf_tables) + bytes(&self.brdf_black) + bytes(&self.brdf_trees) + bytes(&self.brdf_nodes) + bytes(&self.albedo)
     }
 
     /// Bytes of the lighting part — Table 3's "pre-storage lighting".
@@ -115,10 +121,10 @@ impl WaveCache {
                 .enumerate()
                 .any(|(ii, i)| scene.meshes[i.mesh as usize].material as usize == mi && inst_class[ii] == Class::Glossy);
             let mb = MaterialBrdf { model: p.brdf, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
-            if used {
-                let beta = bake::brdf_beta(m.roughness, p.brdf_beta_scale);
-                let t = brdf::tabulate(
-                    &mb,
+            let beta = bake::brdf_beta(m.roughness, p.brdf_beta_scale);
+            let mut tabulate = |mb: &MaterialBrdf| {
+                brdf::tabulate(
+                    mb,
                     p.brdf_grid_u1,
                     p.brdf_grid_u2,
                     p.brdf_res,
@@ -127,12 +133,17 @@ impl WaveCache {
                     &mut c.brdf_nodes,
                     &mut c.brdf_trees,
                     tick,
-                );
-                c.brdf_tables.push(t);
-                c.check_budget()?;
+                )
+            };
+            let table = if used { tabulate(&mb) } else { BrdfTable::default() };
+            let black = if used && m.base_color_texture.is_some() {
+                tabulate(&MaterialBrdf { base: Vec3::ZERO, ..mb })
             } else {
-                c.brdf_tables.push(BrdfTable::default());
-            }
+                BrdfTable::default()
+            };
+            c.brdf_tables.push(table);
+            c.brdf_black.push(black);
+            c.check_budget()?;
             let (model, r) = if classes[mi] == Class::Diffuse { (p.brdf, m.roughness) } else { (BrdfModel::Lambert, 1.0) };
             c.albedo.extend(brdf::albedo_table(model, r, ALBEDO_BINS, 64));
         }
@@ -239,7 +250,7 @@ impl WaveCache {
         let point = (std::mem::size_of::<CachePoint>() + std::mem::size_of::<OctNode>()) as u64;
         let payload = |c: Class| if c == Class::Glossy { std::mem::size_of::<TreeRef>() as u64 } else { 6 };
         let points: u64 = plan.points.iter().zip(&inst_class).map(|(&m, &c)| m as u64 * (point + payload(c))).sum();
-        let brdf = Self::glossy_materials(frame, p) * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 * std::mem::size_of::<TreeRef>() as u64;
+        let brdf = Self::brdf_table_count(frame, p) * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 * std::mem::size_of::<TreeRef>() as u64;
         points + brdf
     }
 
@@ -251,8 +262,9 @@ impl WaveCache {
         )
     }
 
-    /// Materials used by a glossy instance (the ones with a BRDF table).
-    fn glossy_materials(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+    /// BRDF tables the build tabulates: one per material used by a glossy instance, two where
+    /// its base colour is textured ([`WaveCache::brdf_black`]).
+    fn brdf_table_count(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
         let scene = frame.scene;
         scene
             .materials
@@ -261,15 +273,16 @@ impl WaveCache {
             .filter(|(mi, m)| {
                 p.classify(m) == Class::Glossy && scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == *mi)
             })
-            .count() as u64
+            .map(|(_, m)| 1 + m.base_color_texture.is_some() as u64)
+            .sum()
     }
 
     /// Units of work [`WaveCache::build`] ticks (for the progress bar's length).
     pub fn work_units(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
-        let glossy_materials = Self::glossy_materials(frame, p);
+        let tables = Self::brdf_table_count(frame, p);
         let (inst_class, areas) = classes_and_areas(frame, p);
         let points: usize = plan_points(frame, p, &inst_class, &areas).points.iter().sum();
-        glossy_materials * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 + points as u64
+        tables * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 + points as u64
     }
 
     // ----------------------------------------------------------------------------------------
@@ -277,7 +290,7 @@ impl WaveCache {
     // payload is the key and the arrays, each as a u64 byte length and its plain bytes.
 
     /// Bump when the payload's layout or any array element's layout changes.
-    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 2 };
+    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 3 };
 
     /// The payload of [`WaveCache::FORMAT`].
     pub fn to_payload(&self) -> Vec<u8> {
@@ -288,6 +301,7 @@ impl WaveCache {
             out.extend_from_slice(bytemuck::cast_slice(v));
         }
         put(&mut out, &self.brdf_tables);
+        put(&mut out, &self.brdf_black);
         put(&mut out, &self.brdf_trees);
         put(&mut out, &self.brdf_nodes);
         put(&mut out, &self.albedo);
@@ -324,6 +338,7 @@ impl WaveCache {
         let c = WaveCache {
             key,
             brdf_tables: get(data, &mut at, "BRDF tables")?,
+            brdf_black: get(data, &mut at, "black-base BRDF tables")?,
             brdf_trees: get(data, &mut at, "BRDF trees")?,
             brdf_nodes: get(data, &mut at, "BRDF nodes")?,
             albedo: get(data, &mut at, "albedo")?,
@@ -385,7 +400,10 @@ impl WaveCache {
         for (i, t) in self.radiance_trees.iter().enumerate() {
             validate_haar_tree(&self.radiance_nodes, t).map_err(|m| format!("radiance tree {i}: {m}"))?;
         }
-        for (mi, t) in self.brdf_tables.iter().enumerate() {
+        if self.brdf_black.len() != materials {
+            return Err(format!("{} black-base BRDF tables for {materials} materials", self.brdf_black.len()));
+        }
+        for (mi, t) in self.brdf_tables.iter().chain(&self.brdf_black).enumerate() {
             if t.res == 0 {
                 continue;
             }

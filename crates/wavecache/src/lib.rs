@@ -99,6 +99,14 @@ pub struct WavecacheParams {
     pub map_scale: u32,
     /// Path-traced samples per radiance texel (paper 128).
     pub texel_samples: u32,
+    /// `texel_light_samples` (ours; 0 in `profile=paper`, which path-traces the texels alone):
+    /// light samples per map texel, on average, shared by the area lights and the environment and
+    /// splatted into the texel of their direction, combined with the texels' own samples by the
+    /// balance heuristic ([`bake::Integrator::radiance_map`]). A small bright source (a softbox, a
+    /// 2 cm sphere) covering part of a texel is otherwise found by one of its `texel_samples`
+    /// rays or none: the texel reads many times its light or nothing, a black or a glinting
+    /// highlight on the glossy surface (`textured-glossy`). One shadow ray each.
+    pub texel_light_samples: u32,
     /// Radiance β relative to the map's root scaling coefficient (paper: 1000 in its own units).
     pub radiance_beta: f32,
     /// Paths per diffuse point's irradiance.
@@ -223,6 +231,7 @@ impl Default for WavecacheParams {
             brdf_beta_scale: 0.01,
             map_scale: 4,
             texel_samples: 16,
+            texel_light_samples: 4,
             radiance_beta: 1e-3,
             irradiance_samples: 512,
             diffuse_points: 20000,
@@ -269,6 +278,7 @@ impl WavecacheParams {
             brdf_res: 128,
             map_scale: 1,
             texel_samples: 128,
+            texel_light_samples: 0,
             path_budget: 0,
             ray_budget: 0,
             min_spacing: 0.0,
@@ -343,6 +353,7 @@ impl WavecacheParams {
             brdf_beta_scale: params.f32("brdf_beta_scale", base.brdf_beta_scale, 0.0, 1e6)?,
             map_scale: pow2("map_scale", params.u32("map_scale", base.map_scale, 1, 32)?)?,
             texel_samples: params.u32("texel_samples", base.texel_samples, 1, 1 << 20)?,
+            texel_light_samples: params.u32("texel_light_samples", base.texel_light_samples, 0, 1 << 20)?,
             radiance_beta: params.f32("radiance_beta", base.radiance_beta, 0.0, 1e6)?,
             irradiance_samples: params.u32("irradiance_samples", base.irradiance_samples, 1, 1 << 24)?,
             diffuse_points: params.u32("diffuse_points", base.diffuse_points, 1, 50_000_000)?,

@@ -27,6 +27,7 @@
 
 use crate::bake::CachePoint;
 use crate::brdf;
+use crate::brdf::BrdfTable;
 use crate::cache::{ALBEDO_BINS, WaveCache, cache_key};
 use crate::haar;
 use crate::halfcube::map_frame;
@@ -219,10 +220,15 @@ pub fn lobe_finer_than_map(roughness: f32, map_res: u32, texels: f32) -> bool {
 }
 
 /// Per-texel albedo on a shared glossy lobe: the BRDF trees are tabulated once per material with
-/// its base-colour factor, so a textured pixel (base = texel × factor) scales the lobe by
-/// base / factor per channel (the texel). Exact for the diffuse part and, to Schlick's first order,
-/// a metal's F0; it also tints a textured dielectric's (white) specular part by the texel, a bias
-/// measured against `pt` in tests/textures.rs. A zero factor channel stays as tabulated (zero).
+/// its base-colour factor (and, for a textured material, once more with a black base,
+/// [`WaveCache::brdf_black`]), and a textured pixel (base = texel × factor) reads them at
+/// base / factor per channel (the texel). With the black table the result is exact, the BRDF
+/// being affine in the base colour; without one (caches of untextured materials) the lobe is
+/// scaled by the ratio, which is 1. A zero factor channel stays as tabulated.
+///
+/// Why the black table (issue #13): scaling the whole lobe by the texel also darkened a textured
+/// dielectric's white specular highlight on Spot's black patches, 0.3 where `pt` has 3–5
+/// (`textured-glossy`: 8 pixels black where lit).
 fn texel_ratio(base: Vec3, factor: Vec3) -> Vec3 {
     let r = |b: f32, f: f32| if f > 1e-6 { b / f } else { 1.0 };
     Vec3::new(r(base.x, factor.x), r(base.y, factor.y), r(base.z, factor.z))
@@ -382,8 +388,14 @@ impl<'a> Runtime<'a> {
 
     /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
     pub fn glossy(&self, material: u32, wo_local: Vec3, tree: u32) -> Vec3 {
+        self.cache.brdf_tables.get(material as usize).map_or(Vec3::ZERO, |t| self.product(t, wo_local, tree))
+    }
+
+    /// Eq. 20 with the BRDF table `t`: its four trees around `wo_local`, bilinearly blended,
+    /// ⊗ radiance tree `tree`.
+    fn product(&self, t: &BrdfTable, wo_local: Vec3, tree: u32) -> Vec3 {
         let c = self.cache;
-        let (Some(t), Some(rt)) = (c.brdf_tables.get(material as usize), c.radiance_trees.get(tree as usize)) else {
+        let Some(rt) = c.radiance_trees.get(tree as usize) else {
             return Vec3::ZERO;
         };
         if t.res == 0 {
@@ -427,7 +439,14 @@ impl<'a> Runtime<'a> {
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let ratio = texel_ratio(s.base, self.frame.scene.materials[s.material as usize].base_color);
+                let m = s.material as usize;
+                let ratio = texel_ratio(s.base, self.frame.scene.materials[m].base_color);
+                let Some(table) = self.cache.brdf_tables.get(m) else {
+                    return Vec3::ZERO;
+                };
+                // A textured texel's BRDF: black + ratio × (factor's − black's), exact (the BRDF
+                // is affine in the base colour); untextured ones have ratio 1.
+                let black = self.cache.brdf_black.get(m).filter(|b| b.res > 0 && (ratio - Vec3::ONE).abs().max_element() > 1e-4);
                 // Per shaded point: ω_o in the pixel's frame, and its mirror direction about ns.
                 let (wo_pixel, r) = (map_frame(ns).to_local(wo), bsdf::reflect(wo, ns));
                 let radiance = |p: &CachePoint| {
@@ -437,9 +456,16 @@ impl<'a> Runtime<'a> {
                         WoFrame::Point => map_frame(np).to_local(wo),
                         WoFrame::Reflect => map_frame(np).to_local(bsdf::reflect(r, np)),
                     };
-                    self.glossy(s.material, wo_local, p.payload)
+                    let lit = self.product(table, wo_local, p.payload);
+                    match black {
+                        Some(b) => {
+                            let dark = self.product(b, wo_local, p.payload);
+                            (dark + (lit - dark) * ratio).max(Vec3::ZERO)
+                        }
+                        None => lit * ratio,
+                    }
                 };
-                reading.blended().map(|(p, w)| radiance(p) * w).sum::<Vec3>() * ratio
+                reading.blended().map(|(p, w)| radiance(p) * w).sum::<Vec3>()
             }
         }
     }

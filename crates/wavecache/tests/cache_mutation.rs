@@ -59,13 +59,15 @@ fn sections(payload: &[u8]) -> Vec<(usize, usize)> {
     out
 }
 
-const BRDF_TREES: usize = 1;
-const BRDF_NODES: usize = 2;
-const MESHES: usize = 4;
-const OCTREE: usize = 5;
-const POINTS: usize = 6;
-const RADIANCE_TREES: usize = 8;
-const RADIANCE_NODES: usize = 9;
+const BRDF_BLACK: usize = 1;
+const BRDF_TREES: usize = 2;
+const BRDF_NODES: usize = 3;
+const MESHES: usize = 5;
+const OCTREE: usize = 6;
+const POINTS: usize = 7;
+const IRRADIANCE: usize = 8;
+const RADIANCE_TREES: usize = 9;
+const RADIANCE_NODES: usize = 10;
 
 fn set_u32(b: &mut [u8], at: usize, v: u32) {
     b[at..at + 4].copy_from_slice(&v.to_le_bytes());
@@ -169,6 +171,8 @@ fn mutated_cache_files_are_rejected_or_harmless() {
         (0, 16, 0, "BRDF table n_u1"),
         (0, 16, 4, "BRDF table n_u2"),
         (0, 16, 12, "BRDF table first_tree"),
+        (BRDF_BLACK, 16, 8, "black-base BRDF table res"),
+        (BRDF_BLACK, 16, 12, "black-base BRDF table first_tree"),
     ];
     for &(sec, size, off, name) in &u32_fields {
         let n = count(sec, size);
@@ -199,7 +203,7 @@ fn mutated_cache_files_are_rejected_or_harmless() {
         b[field(sec, 0, 0, at)..][..4].copy_from_slice(&f32::NAN.to_le_bytes());
         crafted.push((format!("{name} = NaN"), b));
     }
-    for (sec, name) in [(RADIANCE_NODES, "radiance C"), (7, "irradiance")] {
+    for (sec, name) in [(RADIANCE_NODES, "radiance C"), (IRRADIANCE, "irradiance")] {
         let mut b = payload.clone();
         b[secs[sec].0..][..2].copy_from_slice(&0x7c00u16.to_le_bytes());
         crafted.push((format!("{name} = +inf (fp16)"), b));

@@ -83,3 +83,46 @@ fn textured_glossy_surfaces_keep_their_texture() {
     assert!(e_textured < 2e-3, "wavecache should stay close to pt on textured glossy surfaces: {e_textured:.3e}");
     assert!(e_textured * 2.0 < e_blind, "keeping the texture must halve the error at least: {e_textured:.3e} vs {e_blind:.3e}");
 }
+
+/// A black texel of a glossy dielectric still reflects its white specular lobe (F0 = 0.04): the
+/// cache reads a textured material's BRDF at the texel exactly (its black-base table,
+/// `WaveCache::brdf_black`), where scaling the factor's lobe by the texel made those pixels black
+/// (Spot's black patches on `textured-glossy`: 0.3 where `pt` has 3–5).
+#[test]
+fn black_texels_keep_their_specular_highlight() {
+    // A glossy black/white checker floor mirroring a bright emissive panel, no punctual light:
+    // the floor is shaded by Eq. 20 alone.
+    let toml = "[camera]\nposition = [0.0, 0.6, 1.6]\ntarget = [0.0, 0.0, -0.2]\nfov_y_degrees = 40.0\n\
+        [[quad]]\nsize = [3.0, 3.0]\nmaterial = { base_color = [1.0, 1.0, 1.0], roughness = 0.3, texture = { checker = { cells = 8, colors = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]] } } }\n\
+        [[quad]]\nsize = [1.2, 0.5]\ntranslate = [0.0, 0.6, -1.0]\nrotate = { axis = [1.0, 0.0, 0.0], degrees = 70.0 }\nmaterial = { base_color = [0.0, 0.0, 0.0], emission = [20.0, 20.0, 20.0] }\n";
+    let path = std::env::temp_dir().join(format!("glimpse-black-texels-{}.toml", std::process::id()));
+    std::fs::write(&path, toml).unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    std::fs::remove_file(&path).ok();
+    let ctx = FrameContext::new(&scene, 0.0, 48, 36);
+    let g = ctx.gbuffer();
+    let floor = scene.materials.iter().position(|m| m.roughness == 0.3).unwrap() as u32;
+    let black: Vec<usize> =
+        (0..g.material.len()).filter(|&i| g.is_hit(i) && g.material[i] == floor && g.albedo[i].max_element() < 1e-3).collect();
+    let mean = |img: &glimpse_core::Image| {
+        black.iter().map(|&i| glimpse_core::luminance(img.pixels[i]) as f64).sum::<f64>() / black.len().max(1) as f64
+    };
+    let reference = render(&mut PathTracer::new(&Settings { spp: 512, seed: 3 }, &Params::default()).unwrap(), &ctx, &g);
+    let p = WavecacheParams { glossy_points: 300, diffuse_points: 200, texel_samples: 4, ..params() };
+    let mut wc = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, p);
+    let image = render(&mut wc, &ctx, &g);
+    // The same cache without its black-base tables: the factor's lobe scaled by the texel.
+    wc.cache.as_mut().unwrap().brdf_black.iter_mut().for_each(|t| *t = glimpse_wavecache::brdf::BrdfTable::default());
+    let mut scaled = ctx.image();
+    wc.render(&ctx, &g, &mut scaled).expect("render");
+    let (want, got, old) = (mean(&reference), mean(&image), mean(&scaled));
+    println!(
+        "black texels of a glossy dielectric, {} px, mean luminance: pt {want:.4}; wavecache {got:.4} ({:+.1} %); lobe scaled by the texel {old:.4}",
+        black.len(),
+        100.0 * (got / want - 1.0)
+    );
+    assert!(black.len() > 100, "the floor shows its black cells");
+    assert!(want > 0.05, "pt sees the panel's highlight on the black cells: {want:.4}");
+    assert!((got / want - 1.0).abs() < 0.25, "the highlight on black texels: wavecache {got:.4} vs pt {want:.4}");
+    assert!(old < 0.1 * want, "scaling the lobe by the texel loses it (what the test guards against): {old:.4}");
+}

@@ -1,0 +1,75 @@
+//! One pixel's glossy reading, point by point, beside the same product with maps baked at the
+//! pixel itself (few and many texel samples, with and without light samples): whether a wrong
+//! pixel comes from its cache points' place, from the maps' noise or from after the product.
+//!
+//! cargo run --release -p glimpse-wavecache --example probe_pixel -- SCENE WxH X Y [key=value ...]
+
+use glimpse_core::{Rng, Vec3};
+use glimpse_render::bsdf::reflect;
+use glimpse_render::{FrameContext, Params, Settings, Technique};
+use glimpse_wavecache::bake::Integrator;
+use glimpse_wavecache::halfcube::map_frame;
+use glimpse_wavecache::points::SurfaceSample;
+use glimpse_wavecache::technique::{Runtime, ShadePoint};
+use glimpse_wavecache::{Wavecache, haar};
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    if args.len() < 4 {
+        return Err("usage: probe_pixel SCENE WxH X Y [key=value ...]".into());
+    }
+    let scene = glimpse_scene::load(&args[0])?;
+    let (w, h) = args[1].split_once('x').ok_or("size WxH")?;
+    let (w, h): (u32, u32) = (w.parse()?, h.parse()?);
+    let (x, y): (u32, u32) = (args[2].parse()?, args[3].parse()?);
+    let params = Params::parse(&args[4..])?;
+    let mut t = Wavecache::new(&Settings { spp: 1, seed: 0 }, &params)?;
+    params.finish("wavecache")?;
+    let ctx = FrameContext::new(&scene, 0.0, w, h);
+    let g = ctx.gbuffer();
+    t.prepare(&ctx)?;
+    let mut cache = t.cache.clone().ok_or("no cache")?;
+    let wp = t.params.clone();
+    let i = (y * w + x) as usize;
+    if !g.is_hit(i) {
+        return Err("the pixel sees no surface".into());
+    }
+    let s = ShadePoint::at_pixel(&g, i);
+    let wo = -g.view_dir[i];
+    let ns = s.facing_normal(wo);
+    let mc = cache.meshes[s.instance as usize];
+    println!("material {} class {} map_res {} r_max {:.4} base {:?}", s.material, mc.class, mc.map_res, mc.r_max, s.base);
+    // Maps baked at the pixel itself, appended to a copy of the cache.
+    let integ = Integrator::new(&ctx.frame, &ctx.tracer, wp.max_depth, wp.brdf);
+    let sample = SurfaceSample { position: s.position, error_scale: s.error_scale, normal: s.normal, shading_normal: ns };
+    let res = mc.map_res.max(4);
+    let mut own = Vec::new();
+    for (texel, light, seed) in [(16, 0, 1), (16, 0, 2), (16, 4, 1), (16, 4, 2), (256, 0, 1), (256, 16, 1)] {
+        let (img, _) = integ.radiance_map(&sample, &map_frame(ns), res, texel, light, &mut Rng::new(seed, 1));
+        let tree = haar::build(&img, res, wp.radiance_beta as f64, &mut cache.radiance_nodes);
+        cache.radiance_trees.push(tree);
+        own.push((
+            format!("map at the pixel, {texel} rays + {light} light samples per texel, seed {seed}"),
+            cache.radiance_trees.len() as u32 - 1,
+        ));
+    }
+    let rt = Runtime::new(&cache, &wp, &ctx.frame, &ctx.tracer);
+    let reading = rt.point_for(&s, wo);
+    let r = reflect(wo, ns);
+    for (p, weight) in reading.blended() {
+        let np = Vec3::from(p.shading_normal);
+        let d = (Vec3::from(p.position) - s.position).length() / mc.r_max;
+        let wo_local = map_frame(np).to_local(reflect(r, np));
+        println!(
+            "point at {d:.2} r_max, n·n {:.3}, weight {weight:.3}: Eq. 20 {:?}",
+            ns.dot(np),
+            rt.glossy(s.material, wo_local, p.payload)
+        );
+    }
+    println!("far {}; cached (after the texel) {:?}; punctual {:?}", reading.far, rt.cached(&s, wo), rt.punctual(&s, wo).0);
+    let wo_local = map_frame(ns).to_local(reflect(r, ns));
+    for (name, tree) in &own {
+        println!("{name}: Eq. 20 {:?}", rt.glossy(s.material, wo_local, *tree));
+    }
+    Ok(())
+}
