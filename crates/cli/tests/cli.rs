@@ -8,16 +8,26 @@ fn glimpse(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).output().expect("the glimpse binary runs")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A test's scratch folder, removed with its files when dropped (at the end of the test, also
+/// when it fails): keep it alive while `glimpse` runs on its files.
+struct Scratch(tempfile::TempDir);
+
+fn scratch() -> Scratch {
+    Scratch(tempfile::Builder::new().prefix("glimpse-cli-").tempdir().unwrap())
 }
 
-fn write(name: &str, text: &str) -> PathBuf {
-    let p = tmp(name);
-    std::fs::write(&p, text).unwrap();
-    p
+impl Scratch {
+    /// A path in the folder.
+    fn tmp(&self, name: &str) -> PathBuf {
+        self.0.path().join(name)
+    }
+
+    /// Writes `text` to `name` in the folder.
+    fn write(&self, name: &str, text: &str) -> PathBuf {
+        let p = self.tmp(name);
+        std::fs::write(&p, text).unwrap();
+        p
+    }
 }
 
 /// Asserts a clean failure: non-zero exit, no panic, and an error line containing every `needle`.
@@ -33,7 +43,8 @@ fn assert_error(out: &Output, needles: &[&str]) {
 }
 
 fn render(scene: &str, extra: &[&str]) -> Output {
-    let out = tmp("out.png");
+    let dir = scratch();
+    let out = dir.tmp("out.png");
     let mut args = vec!["render", scene, "-t", "ao-exact", "--size", "16x16", "--spp", "2", "-o", out.to_str().unwrap()];
     args.extend_from_slice(extra);
     glimpse(&args)
@@ -41,8 +52,9 @@ fn render(scene: &str, extra: &[&str]) -> Output {
 
 #[test]
 fn renders_the_builtin_cornell_box_to_png_and_exr() {
+    let t = scratch();
     for ext in ["png", "exr"] {
-        let out = tmp(&format!("cornell.{ext}"));
+        let out = t.tmp(&format!("cornell.{ext}"));
         let o = glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "32x24", "--spp", "4", "-o", out.to_str().unwrap()]);
         let stdout = String::from_utf8_lossy(&o.stdout);
         println!("{}", stdout.trim());
@@ -55,8 +67,9 @@ fn renders_the_builtin_cornell_box_to_png_and_exr() {
 
 #[test]
 fn same_command_gives_the_same_image() {
-    let a = tmp("det-a.exr");
-    let b = tmp("det-b.exr");
+    let t = scratch();
+    let a = t.tmp("det-a.exr");
+    let b = t.tmp("det-b.exr");
     for p in [&a, &b] {
         assert!(
             glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "24x24", "--spp", "3", "--seed", "5", "-o", p.to_str().unwrap()])
@@ -84,34 +97,37 @@ fn missing_file_names_the_file() {
 
 #[test]
 fn malformed_files_name_the_file() {
-    let obj = write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n");
+    let t = scratch();
+    let obj = t.write("bad.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 99\n");
     assert_error(&render(obj.to_str().unwrap(), &[]), &["bad.obj"]);
-    let gltf = write("bad.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ ");
+    let gltf = t.write("bad.gltf", "{ \"asset\": { \"version\": \"2.0\" }, \"meshes\": [ ");
     assert_error(&render(gltf.to_str().unwrap(), &[]), &["bad.gltf", "malformed"]);
-    let toml = write("bad.toml", "name = \"x\"\n[[mesh]\nfile = 3\n");
+    let toml = t.write("bad.toml", "name = \"x\"\n[[mesh]\nfile = 3\n");
     assert_error(&render(toml.to_str().unwrap(), &[]), &["bad.toml"]);
-    let unknown_key = write("typo.toml", "name = \"x\"\nnmae = 2\n");
+    let unknown_key = t.write("typo.toml", "name = \"x\"\nnmae = 2\n");
     assert_error(&render(unknown_key.to_str().unwrap(), &[]), &["typo.toml", "nmae"]);
 }
 
 #[test]
 fn invalid_geometry_is_an_error() {
-    let nan = write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let t = scratch();
+    let nan = t.write("nan.obj", "v nan 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     assert_error(&render(nan.to_str().unwrap(), &[]), &["nan.obj", "NaN"]);
-    let inf = write("inf.obj", "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
+    let inf = t.write("inf.obj", "v inf 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n");
     assert_error(&render(inf.to_str().unwrap(), &[]), &["inf.obj"]);
-    let degenerate = write("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
+    let degenerate = t.write("degenerate.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\n");
     assert_error(&render(degenerate.to_str().unwrap(), &[]), &["degenerate.obj", "degenerate"]);
-    let empty = write("empty.obj", "# nothing here\n");
+    let empty = t.write("empty.obj", "# nothing here\n");
     assert_error(&render(empty.to_str().unwrap(), &[]), &["empty.obj", "empty"]);
-    let flat = write("line.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n");
+    let flat = t.write("line.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nv 3 0 0\nf 1 2 3\nf 2 3 4\n");
     assert_error(&render(flat.to_str().unwrap(), &[]), &["line.obj"]);
 }
 
 #[test]
 fn unknown_names_and_absurd_arguments_are_errors() {
+    let t = scratch();
     assert_error(&render("no-such-scene", &[]), &["unknown scene 'no-such-scene'"]);
-    let out = tmp("x.png");
+    let out = t.tmp("x.png");
     let o = out.to_str().unwrap();
     assert_error(&glimpse(&["render", "cornell", "-t", "no-such-technique", "-o", o]), &["no-such-technique"]);
     assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "0x10", "-o", o]), &["0x10"]);
@@ -121,7 +137,7 @@ fn unknown_names_and_absurd_arguments_are_errors() {
     assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--time", "nan", "-o", o]), &["--time"]);
     assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--set", "radius=-1", "-o", o]), &["radius"]);
     assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "--set", "bogus=1", "-o", o]), &["bogus", "ao-exact"]);
-    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "-o", tmp("x.bmp").to_str().unwrap()]), &["x.bmp"]);
+    assert_error(&glimpse(&["render", "cornell", "-t", "ao-exact", "-o", t.tmp("x.bmp").to_str().unwrap()]), &["x.bmp"]);
     assert_error(&glimpse(&["render", "cornell", "-t", "lights-exact", "-o", o]), &["lights-exact", "no punctual"]);
     assert_error(&glimpse(&["bench", "rays", "cornell", "--kind", "bogus"]), &["bogus"]);
     assert_error(&glimpse(&["play", "cornell", "-t", "ao-exact", "--frames", "0"]), &["--frames"]);
@@ -129,7 +145,8 @@ fn unknown_names_and_absurd_arguments_are_errors() {
 
 #[test]
 fn eval_writes_results_json_and_report() {
-    let dir = tmp("eval");
+    let t = scratch();
+    let dir = t.tmp("eval");
     let o = glimpse(&[
         "eval",
         "cornell",
@@ -166,7 +183,8 @@ fn eval_writes_results_json_and_report() {
 /// rays) reach results.json's metrics and the report's "other" column.
 #[test]
 fn eval_reports_shadow_epsilon() {
-    let dir = tmp("eval-eps");
+    let t = scratch();
+    let dir = t.tmp("eval-eps");
     let o = glimpse(&[
         "eval",
         "many-lights",
@@ -205,7 +223,8 @@ fn bench_rays_reports_the_exact_tracer() {
 
 #[test]
 fn play_prints_per_frame_timings_and_writes_frames() {
-    let dir = tmp("play");
+    let t = scratch();
+    let dir = t.tmp("play");
     let o = glimpse(&[
         "play",
         "cornell-dynamic",
@@ -230,7 +249,8 @@ fn play_prints_per_frame_timings_and_writes_frames() {
 
 #[test]
 fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_line() {
-    let scene = write(
+    let t = scratch();
+    let scene = t.write(
         "hints.xml",
         r#"<scene version="3.0.0">
     <integrator type="path"><integer name="max_depth" value="3"/></integrator>
@@ -245,7 +265,7 @@ fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_
 </scene>
 "#,
     );
-    let out_png = tmp("hints.png");
+    let out_png = t.tmp("hints.png");
     let out = glimpse(&["render", scene.to_str().unwrap(), "-t", "pt", "-o", out_png.to_str().unwrap()]);
     let stdout = String::from_utf8_lossy(&out.stdout);
     println!("{stdout}{}", String::from_utf8_lossy(&out.stderr));
@@ -256,7 +276,7 @@ fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_
         glimpse(&["render", scene.to_str().unwrap(), "-t", "pt", "--size", "4x4", "--set", "max_depth=1", "-o", out_png.to_str().unwrap()]);
     assert!(out.status.success() && String::from_utf8_lossy(&out.stdout).contains("at 4x4, 2 spp"));
 
-    let bad = write("bad.xml", "<scene version=\"3.0.0\">\n<shape type=\"disk\"/>\n</scene>\n");
+    let bad = t.write("bad.xml", "<scene version=\"3.0.0\">\n<shape type=\"disk\"/>\n</scene>\n");
     let out = glimpse(&["render", bad.to_str().unwrap(), "-t", "pt", "-o", out_png.to_str().unwrap()]);
     assert_error(&out, &["bad.xml", "line 2", "<shape type='disk'>"]);
 }
@@ -265,8 +285,9 @@ fn a_mitsuba_scene_gives_render_its_size_spp_and_depth_and_bad_xml_is_one_error_
 /// (ROMA blends its frames; the count is in results.json).
 #[test]
 fn eval_frames_accumulates_temporal_techniques() {
+    let t = scratch();
     let rmse = |frames: &str| {
-        let dir = tmp(&format!("frames-{frames}"));
+        let dir = t.tmp(&format!("frames-{frames}"));
         let o = glimpse(&[
             "eval",
             "cornell",
@@ -293,17 +314,18 @@ fn eval_frames_accumulates_temporal_techniques() {
     let (one, eight) = (rmse("1"), rmse("8"));
     println!("ao-roma RMSE after 1 frame {one:.4}, after 8 frames {eight:.4}");
     assert!(eight < one * 0.8, "accumulating 8 frames must lower the error: {one} -> {eight}");
-    assert_error(&glimpse(&["eval", "cornell", "--frames", "0", "-o", tmp("f0").to_str().unwrap()]), &["0"]);
+    assert_error(&glimpse(&["eval", "cornell", "--frames", "0", "-o", t.tmp("f0").to_str().unwrap()]), &["0"]);
 }
 
 /// `glimpse suite`: a scene naming a missing file is skipped with the reason; an unknown `--only`
 /// name is an error naming it.
 #[test]
 fn suite_skips_scenes_with_missing_files_and_rejects_unknown_names() {
-    let scenes = tmp("suite-scenes");
+    let t = scratch();
+    let scenes = t.tmp("suite-scenes");
     std::fs::create_dir_all(&scenes).unwrap();
     std::fs::write(scenes.join("gone.toml"), "# Needs a mesh that is not there.\n[[mesh]]\nfile = \"nowhere/missing.obj\"\n").unwrap();
-    let out = tmp("suite-out");
+    let out = t.tmp("suite-out");
     let o = glimpse(&["suite", "--quick", "--scenes", scenes.to_str().unwrap(), "-o", out.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     println!("{stderr}");
@@ -326,8 +348,9 @@ fn mean_luminance(img: &glimpse_core::Image) -> f32 {
 
 #[test]
 fn a_bare_mesh_gets_a_default_light_said_once_and_renders_lit() {
-    let obj = write("bare-cube.obj", BARE_CUBE);
-    let out = tmp("bare-cube.exr");
+    let t = scratch();
+    let obj = t.write("bare-cube.obj", BARE_CUBE);
+    let out = t.tmp("bare-cube.exr");
     let o = glimpse(&["render", obj.to_str().unwrap(), "-t", "pt", "--size", "24x24", "--spp", "4", "-o", out.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     assert!(o.status.success(), "{stderr}");
@@ -340,9 +363,10 @@ fn a_bare_mesh_gets_a_default_light_said_once_and_renders_lit() {
 
 #[test]
 fn scene_overrides_apply_and_bad_values_are_errors() {
-    let obj = write("override-cube.obj", BARE_CUBE);
+    let t = scratch();
+    let obj = t.write("override-cube.obj", BARE_CUBE);
     let scene = obj.to_str().unwrap();
-    let out = tmp("override.exr");
+    let out = t.tmp("override.exr");
     // A point light and a sun replace the default light; a camera looking away sees only black.
     let lit = glimpse(&[
         "render",
@@ -395,6 +419,7 @@ fn scene_overrides_apply_and_bad_values_are_errors() {
 /// whole view is an unoccluded exterior under the default white sky (Sponza seen from outside).
 #[test]
 fn no_shared_scene_renders_as_a_blank_frame() {
+    let t = scratch();
     let shared = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes");
     if !shared.is_dir() {
         println!("skipped: {} is missing (the shared test scenes are not on this machine)", shared.display());
@@ -410,7 +435,7 @@ fn no_shared_scene_renders_as_a_blank_frame() {
         "sponza-dabrovic/sponza.obj",
     ] {
         let path = shared.join(rel);
-        let out = tmp("shared.exr");
+        let out = t.tmp("shared.exr");
         let o = glimpse(&[
             "render",
             path.to_str().unwrap(),
@@ -451,11 +476,12 @@ fn no_shared_scene_renders_as_a_blank_frame() {
 
 #[test]
 fn typos_get_a_did_you_mean_and_unwritable_outputs_fail_before_work() {
+    let t = scratch();
     assert_error(&render("cornel", &[]), &["unknown scene 'cornel'", "did you mean 'cornell'"]);
-    let o = tmp("dym.png");
+    let o = t.tmp("dym.png");
     assert_error(&glimpse(&["render", "cornell", "-t", "ao-exac", "-o", o.to_str().unwrap()]), &["ao-exac", "did you mean 'ao-exact'"]);
     // A file where the output's directory should be: refused before the scene is even loaded.
-    let file = write("not-a-dir", "x");
+    let file = t.write("not-a-dir", "x");
     let bad = file.join("out.png");
     let started = std::time::Instant::now();
     assert_error(&glimpse(&["render", "cornell", "-t", "pt", "--size", "2000x2000", "-o", bad.to_str().unwrap()]), &["not-a-dir"]);
@@ -471,7 +497,8 @@ fn bench_only_rejects_unknown_backends() {
 /// the EXR beside the unchanged image; a non-EXR output or an unknown AOV is an error up front.
 #[test]
 fn aovs_are_written_as_exr_channels_beside_the_image() {
-    let (with, without) = (tmp("aov.exr"), tmp("no-aov.exr"));
+    let t = scratch();
+    let (with, without) = (t.tmp("aov.exr"), t.tmp("no-aov.exr"));
     let args = |out: &std::path::Path| {
         ["render", "cornell", "-t", "ao-exact", "--size", "24x16", "--spp", "2", "-o", out.to_str().unwrap()].map(str::to_owned).to_vec()
     };
@@ -517,7 +544,7 @@ fn aovs_are_written_as_exr_channels_beside_the_image() {
     assert!(hits > depth.len() / 2, "{hits} hits");
     assert!(channel("albedo.G").iter().all(|v| (0.0..=1.0).contains(v)) && channel("albedo.R").iter().any(|v| *v > 0.1));
     assert_error(
-        &glimpse(&["render", "cornell", "-t", "ao-exact", "--aov", "albedo", "-o", tmp("aov.png").to_str().unwrap()]),
+        &glimpse(&["render", "cornell", "-t", "ao-exact", "--aov", "albedo", "-o", t.tmp("aov.png").to_str().unwrap()]),
         &["--aov", ".exr"],
     );
     assert_error(
@@ -544,6 +571,7 @@ fn tev_packets(bytes: &[u8]) -> TevPackets {
 /// pass whose last one is the written image; an unreachable tev is an error before rendering.
 #[test]
 fn tev_receives_the_image_as_it_converges() {
+    let t = scratch();
     use std::io::Read;
     let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
     let address = listener.local_addr().unwrap().to_string();
@@ -553,7 +581,7 @@ fn tev_receives_the_image_as_it_converges() {
         s.read_to_end(&mut bytes).unwrap();
         bytes
     });
-    let out = tmp("tev.exr");
+    let out = t.tmp("tev.exr");
     let o = glimpse(&[
         "render",
         "cornell",
@@ -635,6 +663,7 @@ fn tev_server_run(args_after: impl FnOnce(&str) -> Output) -> (Output, Vec<TevPa
 /// technique's image as its own tev image, after checking tev is reachable.
 #[test]
 fn play_and_eval_stream_to_tev() {
+    let t = scratch();
     let (o, connections) = tev_server_run(|address| {
         glimpse(&["play", "cornell", "-t", "ao-exact", "--frames", "3", "--size", "16x16", "--spp", "1", "--tev", address])
     });
@@ -642,7 +671,7 @@ fn play_and_eval_stream_to_tev() {
     let types: Vec<Vec<u8>> = connections.iter().map(|c| c.iter().map(|p| p.0).collect()).collect();
     println!("play: {types:?}");
     assert_eq!(types, [vec![4, 6, 6, 6]], "one image, one update per frame");
-    let dir = tmp("eval-tev");
+    let dir = t.tmp("eval-tev");
     let (o, connections) = tev_server_run(|address| {
         glimpse(&[
             "eval",

@@ -6,9 +6,11 @@ use std::process::Command;
 
 #[test]
 fn device_gpu_without_the_feature_says_how_to_rebuild() {
-    let out = std::env::temp_dir().join(format!("glimpse-device-{}.png", std::process::id()));
+    // Paths that do not exist, in a folder removed when the test ends (also when it fails).
+    let tmp = tempfile::Builder::new().prefix("glimpse-device-").tempdir().unwrap();
+    let out = tmp.path().join("device.png");
     let out = out.to_str().unwrap();
-    let dir = std::env::temp_dir().join(format!("glimpse-device-eval-{}", std::process::id()));
+    let dir = tmp.path().join("eval");
     let commands: [&[&str]; 4] = [
         &["render", "cornell", "-t", "ao-exact", "--size", "8x8", "--device", "gpu", "-o", out],
         &["eval", "cornell", "-t", "ao-roma", "--size", "8x8", "--device", "gpu", "-o", dir.to_str().unwrap()],

@@ -6,17 +6,16 @@
 #![cfg(feature = "gpu")]
 
 use glimpse_core::Image;
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn glimpse(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).output().expect("the glimpse binary runs")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-gpu-device-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A fresh folder, removed when it is dropped (also when the test fails): keep it alive while
+/// `glimpse` runs on its files.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("glimpse-gpu-device-").tempdir().unwrap()
 }
 
 /// Whether a Vulkan adapter exists, asked once per process. With every test creating and
@@ -47,7 +46,8 @@ fn ok(out: &Output) -> String {
 /// Renders `technique` on `scene` on `device` (with more command-line `args`) and reads the
 /// image back.
 fn render(scene: &str, technique: &str, device: &str, set: &[&str], args: &[&str]) -> (Image, String) {
-    let out = tmp(&format!("{scene}-{technique}-{device}.exr"));
+    let dir = scratch();
+    let out = dir.path().join(format!("{scene}-{technique}-{device}.exr"));
     let mut args = [&["render", scene, "-t", technique, "--size", "24x18", "--spp", "4", "--seed", "3", "--device", device], args].concat();
     for s in set {
         args.extend(["--set", s]);
@@ -55,7 +55,6 @@ fn render(scene: &str, technique: &str, device: &str, set: &[&str], args: &[&str
     args.extend(["-o", out.to_str().unwrap()]);
     let log = ok(&glimpse(&args));
     let image = Image::read(&out).unwrap();
-    let _ = std::fs::remove_file(&out);
     (image, log)
 }
 
@@ -144,7 +143,8 @@ fn gpu_env_dvf_is_close_to_the_cpu_one() {
 
 #[test]
 fn cpu_only_techniques_are_an_error_on_the_gpu() {
-    let out = tmp("refused.png");
+    let tmp = scratch();
+    let out = tmp.path().join("refused.png");
     let o = glimpse(&["render", "cornell-lit", "-t", "soft-exact", "--device", "gpu", "--size", "8x8", "-o", out.to_str().unwrap()]);
     let stderr = String::from_utf8_lossy(&o.stderr);
     println!("{}", stderr.trim());
@@ -169,7 +169,8 @@ fn eval_and_play_run_on_the_gpu() {
     if !has_adapter("eval_and_play_run_on_the_gpu") {
         return;
     }
-    let dir = tmp("eval");
+    let tmp = scratch();
+    let dir = tmp.path().join("eval");
     let log = ok(&glimpse(&[
         "eval",
         "cornell-lit",
@@ -194,7 +195,6 @@ fn eval_and_play_run_on_the_gpu() {
     assert!(log.lines().any(|l| l.starts_with("soft-roma") && l.contains("soft-exact")), "{log}");
     assert!(log.lines().any(|l| l.starts_with("gi-roma") && l.contains("gi-exact")), "{log}");
     assert!(dir.join("results.json").exists());
-    let _ = std::fs::remove_dir_all(&dir);
     let log = ok(&glimpse(&["play", "cornell-lit", "-t", "ao-roma", "--device", "gpu", "--frames", "2", "--size", "16x12", "--spp", "1"]));
     println!("{log}");
     assert!(log.contains("frame    1") && log.contains("mean over 2 frames"), "{log}");

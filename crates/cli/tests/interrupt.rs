@@ -20,8 +20,9 @@ fn render(out: &std::path::Path) -> std::process::Child {
 
 #[test]
 fn an_interrupted_render_never_leaves_a_truncated_image() {
-    let dir = std::env::temp_dir().join(format!("glimpse-interrupt-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    // Removed when the test ends (also when it fails); every render is waited for before that.
+    let tmp = tempfile::Builder::new().prefix("glimpse-interrupt-").tempdir().unwrap();
+    let dir = tmp.path();
     for ext in ["png", "hdr", "exr"] {
         let out = dir.join(format!("image.{ext}"));
         // The previous image: a small one, so an interrupted run is told apart from a finished one.
@@ -51,7 +52,7 @@ fn an_interrupted_render_never_leaves_a_truncated_image() {
                 replaced += 1;
             }
             // The interrupt handler removes the temporary file of a write in progress.
-            for e in std::fs::read_dir(&dir).unwrap().filter_map(|e| e.ok()) {
+            for e in std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()) {
                 if e.file_name().to_string_lossy().contains(".tmp") {
                     leftovers += 1;
                     std::fs::remove_file(e.path()).unwrap();
@@ -64,5 +65,4 @@ fn an_interrupted_render_never_leaves_a_truncated_image() {
         assert_eq!(kept + replaced, tries);
         assert_eq!(leftovers, 0, "{ext}: interrupted writes left temporary files");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }

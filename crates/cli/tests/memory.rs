@@ -3,9 +3,15 @@
 
 use std::process::Command;
 
+/// A fresh folder, removed when the test ends (also when it fails): it outlives the `glimpse` runs.
+fn temp_dir() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("glimpse-memory-").tempdir().unwrap()
+}
+
 #[test]
 fn an_array_over_the_budget_is_refused_before_it_is_built() {
-    let out = std::env::temp_dir().join(format!("glimpse-memory-{}.png", std::process::id()));
+    let dir = temp_dir();
+    let out = dir.path().join("memory.png");
     let o = Command::new(env!("CARGO_BIN_EXE_glimpse"))
         .args(["--max-memory", "500M", "render", "many-lights", "-t", "lights-voxarray", "--size", "16x16", "-o"])
         .arg(&out)
@@ -49,7 +55,6 @@ fn an_array_over_the_budget_is_refused_before_it_is_built() {
         .output()
         .unwrap();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
-    std::fs::remove_file(&out).ok();
 }
 
 /// Every technique's own structure is estimated before it is built and refused over the budget,
@@ -70,8 +75,9 @@ fn each_technique_structure_over_the_budget_is_refused() {
         // Over the estimate's budget, the Haar coefficients are checked as they grow.
         ("glossy", "wavecache", &["cache=false"], "6M", "wavecache: the radiance cache (points and Haar coefficients) so far", "MiB"),
     ];
+    let dir = temp_dir();
     for (i, (scene, technique, sets, budget, what, size)) in cases.iter().enumerate() {
-        let out = std::env::temp_dir().join(format!("glimpse-memory-{}-{i}.png", std::process::id()));
+        let out = dir.path().join(format!("memory-{i}.png"));
         let mut cmd = Command::new(env!("CARGO_BIN_EXE_glimpse"));
         cmd.args(["--max-memory", budget, "render", scene, "-t", technique, "--size", "16x16"]);
         for s in sets.iter() {

@@ -8,14 +8,19 @@ fn glimpse(args: &[&str], cache: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).env("GLIMPSE_CACHE", cache).output().expect("the glimpse binary runs")
 }
 
+/// A fresh folder, removed when the test ends (also when it fails): it outlives the `glimpse` runs.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("glimpse-{name}-")).tempdir().unwrap()
+}
+
 fn text(o: &Output) -> String {
     format!("{}{}", String::from_utf8_lossy(&o.stdout), String::from_utf8_lossy(&o.stderr))
 }
 
 #[test]
 fn eval_play_and_bench_take_the_scene_overrides() {
-    let dir = std::env::temp_dir().join(format!("glimpse-overrides-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = temp_dir("overrides");
+    let dir = tmp.path();
     // A bare OBJ: a floor and a small box, no lights.
     let obj = dir.join("floor.obj");
     std::fs::write(
@@ -57,21 +62,20 @@ fn eval_play_and_bench_take_the_scene_overrides() {
     assert!(bench.status.success(), "bench: {}", text(&bench));
     let bad = glimpse(&["play", obj, "-t", "ao-exact", "--frames", "1", "--size", "16x16", "--env", "sky.png"], &cache);
     assert!(!bad.status.success() && text(&bad).contains("--env sky.png"), "{}", text(&bad));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `--scale` renders the same picture in other units; a scale that is not a positive number is
 /// an error naming the option.
 #[test]
 fn scale_keeps_the_picture_and_rejects_nonsense() {
-    let dir = std::env::temp_dir().join(format!("glimpse-scale-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = temp_dir("scale");
+    let dir = tmp.path();
     // The --light is in the scaled units (the overrides come after the scale).
     let render = |scale: &str, light: &str| {
         let out = dir.join(format!("scale-{scale}.exr"));
         let o = glimpse(
             &["render", "glossy", "-t", "lights-exact", "--light", light, "--size", "16x12", "--scale", scale, "-o", out.to_str().unwrap()],
-            &dir,
+            dir,
         );
         (o, out)
     };
@@ -84,5 +88,4 @@ fn scale_keeps_the_picture_and_rejects_nonsense() {
     assert!(worst < 1e-3, "--scale 100 changed the picture: {worst}");
     let (bad, _) = render("0", "point:0,1.5,0:4");
     assert!(!bad.status.success() && text(&bad).contains("--scale 0"), "{}", text(&bad));
-    let _ = std::fs::remove_dir_all(&dir);
 }

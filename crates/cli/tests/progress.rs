@@ -14,9 +14,15 @@ fn parts(summary: &str) -> (Vec<f64>, f64) {
     )
 }
 
+/// A fresh folder, removed when the test ends (also when it fails): it outlives the `glimpse` runs.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("glimpse-{name}-")).tempdir().unwrap()
+}
+
 #[test]
 fn the_summary_lists_every_stage_and_they_add_up() {
-    let out = std::env::temp_dir().join(format!("glimpse-progress-{}.png", std::process::id()));
+    let dir = temp_dir("progress");
+    let out = dir.path().join("progress.png");
     let o = Command::new(env!("CARGO_BIN_EXE_glimpse"))
         .args(["render", "cornell", "-t", "soft-roma", "--size", "32x32", "-o"])
         .arg(&out)
@@ -30,7 +36,6 @@ fn the_summary_lists_every_stage_and_they_add_up() {
     let sum: f64 = parts.iter().sum();
     assert!((sum - total).abs() < 0.3, "{parts:?} sum to {sum}, total {total}");
     assert!(stdout.contains("[bom ") && stdout.contains("generate "), "the prepare's stages are listed: {stdout}");
-    std::fs::remove_file(&out).ok();
 }
 
 /// Under a terminal (`script` gives the child a pty), a prepare longer than a second shows a
@@ -41,7 +46,8 @@ fn a_long_prepare_shows_a_spinner_on_a_terminal() {
         println!("skipped: `script` (util-linux) is not installed");
         return;
     }
-    let out = std::env::temp_dir().join(format!("glimpse-spinner-{}.png", std::process::id()));
+    let dir = temp_dir("spinner");
+    let out = dir.path().join("spinner.png");
     // A voxel array of 60 × 60 directions: a few seconds of build.
     let cmd = format!(
         "{} render many-lights -t lights-voxarray --size 16x16 --set epsilon=false --set disk_cache=false --set resolution=64 --set directions=60 -o {}",
@@ -56,7 +62,6 @@ fn a_long_prepare_shows_a_spinner_on_a_terminal() {
     if prepare_ms > 1500.0 {
         assert!(text.contains("preparing lights-voxarray"), "no spinner during a {prepare_ms} ms prepare: {text}");
     }
-    std::fs::remove_file(&out).ok();
 }
 
 /// `eval`'s reference render (here 64×64 AO at 4,096 spp: seconds on 2 cores) shows a pixel bar
@@ -67,7 +72,8 @@ fn an_eval_reference_render_shows_a_progress_bar_on_a_terminal() {
         println!("skipped: `script` (util-linux) is not installed");
         return;
     }
-    let out = std::env::temp_dir().join(format!("glimpse-eval-progress-{}", std::process::id()));
+    let dir = temp_dir("eval-progress");
+    let out = dir.path().join("eval");
     let cmd = format!(
         "{} eval cornell -t ao-roma --size 64x64 --spp 1 --ref-spp 4096 --no-sweep --no-cache -o {}",
         env!("CARGO_BIN_EXE_glimpse"),
@@ -84,5 +90,4 @@ fn an_eval_reference_render_shows_a_progress_bar_on_a_terminal() {
     if seconds > 3.0 {
         assert!(shown, "no progress bar during a {seconds:.1} s eval: {text}");
     }
-    std::fs::remove_dir_all(&out).ok();
 }

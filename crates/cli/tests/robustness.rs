@@ -2,17 +2,15 @@
 //! regular file; files that are not regular or too big are refused; a run that would not fit in
 //! memory is refused up front; degenerate animation and camera values are errors.
 
-use std::path::PathBuf;
 use std::process::{Command, Output};
 
 fn glimpse(args: &[&str]) -> Output {
     Command::new(env!("CARGO_BIN_EXE_glimpse")).args(args).env("GLIMPSE_CACHE", "").output().expect("the glimpse binary runs")
 }
 
-fn tmp(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-robust-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir.join(name)
+/// A fresh folder, removed when the test ends (also when it fails): it outlives the `glimpse` runs.
+fn scratch() -> tempfile::TempDir {
+    tempfile::Builder::new().prefix("glimpse-robust-").tempdir().unwrap()
 }
 
 /// Status 1, exactly one stderr line, starting `error:` and containing every needle.
@@ -35,6 +33,8 @@ fn render_to(out: &str, extra: &[&str]) -> Output {
 
 #[test]
 fn outputs_never_replace_devices_or_folders_and_leave_old_files() {
+    let dir = scratch();
+    let tmp = |name: &str| dir.path().join(name);
     for ext in ["png", "hdr", "exr"] {
         let good = tmp(&format!("good.{ext}"));
         let ok = render_to(good.to_str().unwrap(), &[]);
@@ -52,16 +52,15 @@ fn outputs_never_replace_devices_or_folders_and_leave_old_files() {
         use std::os::unix::fs::FileTypeExt;
         assert!(std::fs::metadata("/dev/full").unwrap().file_type().is_char_device(), "the device is untouched");
     }
-    let leftovers: Vec<_> = std::fs::read_dir(tmp("x").parent().unwrap())
-        .unwrap()
-        .flatten()
-        .filter(|e| e.file_name().to_string_lossy().contains(".tmp"))
-        .collect();
+    let leftovers: Vec<_> =
+        std::fs::read_dir(dir.path()).unwrap().flatten().filter(|e| e.file_name().to_string_lossy().contains(".tmp")).collect();
     assert!(leftovers.is_empty(), "temporary files left: {leftovers:?}");
 }
 
 #[test]
 fn work_over_the_memory_budget_is_refused_up_front() {
+    let dir = scratch();
+    let tmp = |name: &str| dir.path().join(name);
     let out = tmp("big.png");
     let r = glimpse(&["render", "cornell", "-t", "ao-exact", "--size", "16384x16384", "--max-memory", "1G", "-o", out.to_str().unwrap()]);
     assert_one_error(&r, &["16384x16384", "41.0 GiB", "1.0 GiB", "--max-memory"]);

@@ -9,7 +9,9 @@ fn stderr(args: &[&str]) -> (bool, String) {
 
 #[test]
 fn misspelt_parameters_and_techniques_get_a_suggestion() {
-    let out = std::env::temp_dir().join(format!("glimpse-suggest-{}", std::process::id()));
+    // A path that does not exist, in a folder removed when the test ends (also when it fails).
+    let dir = tempfile::Builder::new().prefix("glimpse-suggest-").tempdir().unwrap();
+    let out = dir.path().join("suggest");
     let out = out.to_str().unwrap();
     let (ok, e) = stderr(&["render", "cornell", "-t", "ao-exact", "--set", "raduis=1", "--size", "8x8", "-o", &format!("{out}.png")]);
     assert!(!ok && e.contains("unknown parameter 'raduis'") && e.contains("did you mean 'radius'?"), "{e}");
@@ -17,5 +19,4 @@ fn misspelt_parameters_and_techniques_get_a_suggestion() {
     assert!(!ok && e.contains("did you mean 'ao-roma'?"), "{e}");
     let (ok, e) = stderr(&["eval", "cornell", "-t", "ao-roma", "--set", "resolutoin=64", "--size", "8x8", "-o", out]);
     assert!(!ok && e.contains("did you mean 'resolution'?"), "{e}");
-    std::fs::remove_dir_all(out).ok();
 }

@@ -68,10 +68,9 @@ fn flip_against(shot: &Path, cpu: &Path) -> f64 {
     glimpse_render::metrics::flip_ldr(&a, &b).unwrap().0
 }
 
-fn temp_dir(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-view-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+/// A fresh folder, removed when the test ends (also when it fails): it outlives the `glimpse` runs.
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("glimpse-view-{name}-")).tempdir().unwrap()
 }
 
 #[test]
@@ -80,10 +79,11 @@ fn the_window_shows_what_the_cpu_renders_and_follows_a_scripted_move_and_switch(
         println!("skipped: xvfb-run is not installed (apt-get install xvfb mesa-vulkan-drivers)");
         return;
     }
-    let dir = temp_dir("still");
+    let tmp = temp_dir("still");
+    let dir = tmp.path();
 
     let still = view(&["cornell", "-t", "ao-exact", "--size", "160x96", "--spp", "2", "--frames", "3"], &dir.join("still.png"));
-    assert!(check_against_cpu(&dir, "still", &still, "160x96", "2", "3", &[]) < 0.01);
+    assert!(check_against_cpu(dir, "still", &still, "160x96", "2", "3", &[]) < 0.01);
     assert!(dir.join("still-window.png").exists(), "the whole window is saved beside the image");
 
     // Orbit 30° and switch from ao-roma to soft-exact once the first image is up.
@@ -93,8 +93,7 @@ fn the_window_shows_what_the_cpu_renders_and_follows_a_scripted_move_and_switch(
     );
     assert_eq!(line(&moved, "technique:"), "soft-exact");
     assert_ne!(line(&moved, "camera:"), line(&still, "camera:"), "the orbit moved the camera");
-    assert!(check_against_cpu(&dir, "moved", &moved, "160x96", "2", "2", &[]) < 0.01);
-    std::fs::remove_dir_all(&dir).ok();
+    assert!(check_against_cpu(dir, "moved", &moved, "160x96", "2", "2", &[]) < 0.01);
 }
 
 #[test]
@@ -103,7 +102,8 @@ fn a_parameter_set_as_its_slider_does_renders_as_set_does() {
         println!("skipped: xvfb-run is not installed (apt-get install xvfb mesa-vulkan-drivers)");
         return;
     }
-    let dir = temp_dir("param");
+    let tmp = temp_dir("param");
+    let dir = tmp.path();
     // radius=0.3 applied once the first image is up, through the path a slider's release takes.
     let args = ["cornell", "-t", "ao-exact", "--size", "160x96", "--spp", "2", "--frames", "2", "--set-param", "radius=0.3"];
     let out = view(&args, &dir.join("param.png"));
@@ -111,12 +111,11 @@ fn a_parameter_set_as_its_slider_does_renders_as_set_does() {
         println!("param: {l}");
     }
     assert_eq!(line(&out, "set:"), "radius=0.3");
-    let with = check_against_cpu(&dir, "param", &out, "160x96", "2", "2", &["--set", "radius=0.3"]);
+    let with = check_against_cpu(dir, "param", &out, "160x96", "2", "2", &["--set", "radius=0.3"]);
     assert!(with < 0.01);
     // And the parameter changed the image: the default radius (infinite) renders another one.
-    let without = check_against_cpu(&dir, "param", &out, "160x96", "2", "2", &[]);
+    let without = check_against_cpu(dir, "param", &out, "160x96", "2", "2", &[]);
     assert!(without > 10.0 * with.max(1e-4), "radius=0.3 changed nothing (FLIP {without:.5} against the default)");
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
@@ -125,7 +124,8 @@ fn time_steps_carry_a_temporal_history_as_play_does() {
         println!("skipped: xvfb-run is not installed (apt-get install xvfb mesa-vulkan-drivers)");
         return;
     }
-    let dir = temp_dir("time");
+    let tmp = temp_dir("time");
+    let dir = tmp.path();
     // ao-roma blends its frames (window 10); 3 steps of 1/30 s with one frame each: frames 0..3.
     let args = ["cornell-dynamic", "-t", "ao-roma", "--size", "160x96", "--spp", "2", "--frames", "1", "--step-time", "3"];
     let out = view(&args, &dir.join("time.png"));
@@ -155,5 +155,4 @@ fn time_steps_carry_a_temporal_history_as_play_does() {
     println!("time: screenshot vs play's frame 3: LDR-FLIP {against_play:.5}; vs a single frame at t=0.1: {against_single:.5}");
     assert!(against_play < 0.01);
     assert!(against_single > 5.0 * against_play.max(1e-4), "the history made no difference");
-    std::fs::remove_dir_all(&dir).ok();
 }

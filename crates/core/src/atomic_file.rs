@@ -127,16 +127,15 @@ pub fn remove_stale_temps(dir: &Path, max_age: Duration) -> usize {
 mod tests {
     use super::*;
 
-    fn dir(name: &str) -> PathBuf {
-        let d = std::env::temp_dir().join(format!("glimpse-atomic-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&d);
-        std::fs::create_dir_all(&d).unwrap();
-        d
+    /// A fresh, empty folder, removed when the test ends (also when it fails).
+    fn dir(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("glimpse-atomic-{name}-")).tempdir().unwrap()
     }
 
     #[test]
     fn a_failing_writer_leaves_the_old_file_and_no_temporary() {
-        let d = dir("fail");
+        let tmp = dir("fail");
+        let d = tmp.path();
         let p = d.join("out.txt");
         std::fs::write(&p, b"old").unwrap();
         let e = write_atomic(&p, |w| {
@@ -147,7 +146,7 @@ mod tests {
         println!("{e}");
         assert!(e.to_string().contains("out.txt") && e.to_string().contains("disk full"), "{e}");
         assert_eq!(std::fs::read(&p).unwrap(), b"old");
-        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1, "the temporary file is removed");
+        assert_eq!(std::fs::read_dir(d).unwrap().count(), 1, "the temporary file is removed");
     }
 
     #[test]
@@ -170,8 +169,8 @@ mod tests {
 
     #[test]
     fn a_device_or_folder_is_never_replaced() {
-        let d = dir("device");
-        let e = write_bytes_atomic(&d, b"x").unwrap_err().to_string();
+        let tmp = dir("device");
+        let e = write_bytes_atomic(tmp.path(), b"x").unwrap_err().to_string();
         assert!(e.contains("not a regular file"), "{e}");
         if Path::new("/dev/full").exists() {
             let e = write_bytes_atomic(Path::new("/dev/full"), b"x").unwrap_err().to_string();
@@ -182,21 +181,23 @@ mod tests {
 
     #[test]
     fn success_replaces_the_file_and_leaves_no_temporary() {
-        let d = dir("ok");
+        let tmp = dir("ok");
+        let d = tmp.path();
         let p = d.join("out.txt");
         std::fs::write(&p, b"old").unwrap();
         write_bytes_atomic(&p, b"new").unwrap();
         assert_eq!(std::fs::read(&p).unwrap(), b"new");
-        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        assert_eq!(std::fs::read_dir(d).unwrap().count(), 1);
     }
 
     #[test]
     fn stale_temporaries_are_removed_fresh_ones_kept() {
-        let d = dir("stale");
+        let tmp = dir("stale");
+        let d = tmp.path();
         std::fs::write(d.join("a.bin.tmp123.0"), b"x").unwrap();
         std::fs::write(d.join("a.bin"), b"x").unwrap();
-        assert_eq!(remove_stale_temps(&d, Duration::from_secs(3600)), 0, "fresh: a writer may be running");
-        assert_eq!(remove_stale_temps(&d, Duration::ZERO), 1);
+        assert_eq!(remove_stale_temps(d, Duration::from_secs(3600)), 0, "fresh: a writer may be running");
+        assert_eq!(remove_stale_temps(d, Duration::ZERO), 1);
         assert!(d.join("a.bin").exists() && !d.join("a.bin.tmp123.0").exists());
     }
 }

@@ -95,12 +95,12 @@ mod tests {
 
     #[test]
     fn a_file_over_the_limit_names_size_and_limit() {
-        let p = std::env::temp_dir().join(format!("glimpse-bounded-{}.txt", std::process::id()));
+        let dir = tempfile::Builder::new().prefix("glimpse-bounded-").tempdir().unwrap();
+        let p = dir.path().join("bounded.txt");
         std::fs::write(&p, vec![b'x'; 100]).unwrap();
         let e = read_bounded(&p, "material library", 10).unwrap_err().to_string();
         println!("{e}");
         assert!(e.contains("100 bytes") && e.contains("10-byte limit") && e.contains("material library"), "{e}");
         assert_eq!(read_bounded(&p, "material library", 100).unwrap().len(), 100);
-        let _ = std::fs::remove_file(&p);
     }
 }

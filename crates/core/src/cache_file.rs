@@ -153,22 +153,23 @@ mod tests {
 
     const F: CacheFormat = CacheFormat { magic: *b"TESTCACH", version: 3 };
 
-    fn tmp(name: &str) -> std::path::PathBuf {
-        let d = std::env::temp_dir().join(format!("glimpse-cachefile-{}", std::process::id()));
-        std::fs::create_dir_all(&d).unwrap();
-        d.join(name)
+    /// A fresh folder for one test's files, removed when the test ends (also when it fails).
+    fn tmp() -> tempfile::TempDir {
+        tempfile::Builder::new().prefix("glimpse-cachefile-").tempdir().unwrap()
     }
 
     #[test]
     fn round_trip() {
-        let p = tmp("ok.bin");
+        let dir = tmp();
+        let p = dir.path().join("ok.bin");
         write(&p, F, b"payload bytes").unwrap();
         assert_eq!(read(&p, F, 1 << 20).unwrap(), b"payload bytes");
     }
 
     #[test]
     fn a_payload_written_in_parts_is_the_same_file() {
-        let (whole, parts) = (tmp("whole.bin"), tmp("parts.bin"));
+        let dir = tmp();
+        let (whole, parts) = (dir.path().join("whole.bin"), dir.path().join("parts.bin"));
         write(&whole, F, b"payload bytes").unwrap();
         write_parts(&parts, F, &[b"pay", b"", b"load bytes"]).unwrap();
         assert_eq!(std::fs::read(&parts).unwrap(), std::fs::read(&whole).unwrap());
@@ -197,7 +198,8 @@ mod tests {
 
     #[test]
     fn a_bad_file_is_deleted_and_a_missing_one_is_a_quiet_miss() {
-        let p = tmp("bad.bin");
+        let dir = tmp();
+        let p = dir.path().join("bad.bin");
         let mut data = encode(F, b"abc");
         *data.last_mut().unwrap() ^= 0x40;
         std::fs::write(&p, &data).unwrap();

@@ -280,22 +280,25 @@ mod tests {
         Image::from_fn(7, 5, |x, y| Vec3::new(x as f32 * 0.37, y as f32 * 1.5 + 0.01, 100.0 / (1.0 + x as f32)))
     }
 
+    /// A fresh folder, removed when the test ends (also when it fails).
+    fn temp_dir(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("glimpse-{name}-")).tempdir().unwrap()
+    }
+
     #[test]
     fn exr_round_trip_is_exact() {
-        let dir = std::env::temp_dir().join(format!("glimpse-img-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = temp_dir("img");
         let img = gradient();
-        let p = dir.join("a.exr");
+        let p = dir.path().join("a.exr");
         img.write(&p, ToneMap::default()).unwrap();
         assert_eq!(Image::read(&p).unwrap(), img);
     }
 
     #[test]
     fn hdr_round_trip_keeps_rgbe_precision() {
-        let dir = std::env::temp_dir().join(format!("glimpse-img-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let dir = temp_dir("img");
         let img = gradient();
-        let p = dir.join("a.hdr");
+        let p = dir.path().join("a.hdr");
         img.write(&p, ToneMap::default()).unwrap();
         let back = Image::read(&p).unwrap();
         // RGBE shares one exponent per pixel, so the error is relative to the pixel's largest channel.
@@ -319,8 +322,8 @@ mod tests {
 
     #[test]
     fn a_failed_write_keeps_the_previous_file() {
-        let dir = std::env::temp_dir().join(format!("glimpse-img-fail-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
+        let tmp = temp_dir("img-fail");
+        let dir = tmp.path();
         for ext in ["png", "hdr", "exr"] {
             let p = dir.join(format!("old.{ext}"));
             gradient().write(&p, ToneMap::default()).unwrap();
@@ -333,7 +336,7 @@ mod tests {
             assert!(e.contains(&format!("folder.{ext}")), "{e}");
             assert_eq!(std::fs::read(&p).unwrap(), before);
         }
-        let leftovers: Vec<_> = std::fs::read_dir(&dir)
+        let leftovers: Vec<_> = std::fs::read_dir(dir)
             .unwrap()
             .flatten()
             .filter(|e| e.file_name().to_string_lossy().contains(crate::atomic_file::TEMP_MARKER))

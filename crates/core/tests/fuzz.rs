@@ -22,9 +22,14 @@ fn runner() -> TestRunner {
     TestRunner::new(Config { cases: cases(), failure_persistence: None, ..Config::default() })
 }
 
+/// A fresh folder, removed when the test ends (also when it fails).
+fn temp_dir(name: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("glimpse-{name}-")).tempdir().unwrap()
+}
+
 fn fuzz_image(ext: &str) {
-    let dir = std::env::temp_dir().join(format!("glimpse-fuzz-image-{}-{ext}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let tmp = temp_dir(&format!("fuzz-image-{ext}"));
+    let dir = tmp.path();
     let seed_path = dir.join(format!("seed.{ext}"));
     Image::from_fn(5, 3, |x, y| Vec3::new(x as f32 * 0.3, y as f32 * 2.0, 0.25)).write(&seed_path, ToneMap::default()).unwrap();
     let seed = std::fs::read(&seed_path).unwrap();
@@ -45,7 +50,6 @@ fn fuzz_image(ext: &str) {
         if Image::read(&path).is_ok() { ok += 1 } else { refused += 1 }
     }
     println!("{ext}: {} proptest cases + {} fixed ({ok} read, {refused} refused), 0 panics", cases(), ok + refused);
-    let _ = std::fs::remove_dir_all(&dir);
     if let Err(e) = result {
         panic!("{ext}: {e}");
     }
@@ -91,9 +95,8 @@ fn fuzz_cache_file() {
 /// it request 36 GiB (an abort, not an error).
 #[test]
 fn exr_with_a_huge_data_window_is_refused_not_aborted() {
-    let dir = std::env::temp_dir().join(format!("glimpse-exr-window-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("window.exr");
+    let dir = temp_dir("exr-window");
+    let path = dir.path().join("window.exr");
     Image::from_fn(5, 3, |x, y| Vec3::new(x as f32, y as f32, 0.5)).write(&path, ToneMap::default()).unwrap();
     let mut bytes = std::fs::read(&path).unwrap();
     // dataWindow: name, type "box2i", size 16, then xMin, yMin, xMax, yMax (i32, little endian).
@@ -104,5 +107,4 @@ fn exr_with_a_huge_data_window_is_refused_not_aborted() {
     let e = Image::read(&path).expect_err("a 1G-pixel-wide layer is refused");
     println!("{e}");
     assert!(e.to_string().contains("window.exr"), "{e}");
-    let _ = std::fs::remove_dir_all(&dir);
 }

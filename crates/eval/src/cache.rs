@@ -98,28 +98,29 @@ fn decode(payload: &[u8]) -> Result<Image, String> {
 mod tests {
     use super::*;
 
-    fn temp_cache(name: &str) -> Cache {
-        let dir = std::env::temp_dir().join(format!("glimpse-refcache-{name}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        Cache { dir: Some(dir) }
+    /// A cache in a folder that does not exist yet (the first store creates it), inside a
+    /// scratch folder removed when the test ends (also when it fails): keep the `TempDir`.
+    fn temp_cache(name: &str) -> (tempfile::TempDir, Cache) {
+        let tmp = tempfile::Builder::new().prefix(&format!("glimpse-refcache-{name}-")).tempdir().unwrap();
+        let dir = tmp.path().join("cache");
+        (tmp, Cache { dir: Some(dir) })
     }
 
     #[test]
     fn round_trip_is_exact() {
-        let cache = temp_cache("round");
+        let (_tmp, cache) = temp_cache("round");
         let image = Image::from_fn(5, 3, |x, y| Vec3::new(x as f32 * 0.1, y as f32 * 1e-3, 7.5));
         cache.store("k", &image);
         let back = cache.load("k").expect("stored image loads");
         assert_eq!((back.width, back.height), (5, 3));
         assert_eq!(back.pixels, image.pixels);
-        let _ = std::fs::remove_dir_all(cache.dir.unwrap());
     }
 
     /// Every single-byte corruption and every truncation is a miss (the file deleted), never a
     /// different image; a well-formed payload with a NaN or a wrong size is refused the same way.
     #[test]
     fn corrupt_files_are_deleted_not_used() {
-        let cache = temp_cache("corrupt");
+        let (_tmp, cache) = temp_cache("corrupt");
         let image = Image::from_fn(4, 2, |x, y| Vec3::splat((x + y) as f32));
         cache.store("k", &image);
         let path = cache.path("k").unwrap();
@@ -147,6 +148,5 @@ mod tests {
         cache_file::write(&path, FORMAT, &short).unwrap();
         assert!(cache.load("k").is_none() && !path.exists(), "a size that does not match the pixels");
         println!("reference cache: {} corrupt files refused and deleted, 0 used", refused + 2);
-        let _ = std::fs::remove_dir_all(cache.dir.unwrap());
     }
 }

@@ -4,7 +4,7 @@
 mod metrics {
     use glimpse_core::{Image, ToneMap, Vec3};
     use glimpse_render::metrics::*;
-    use std::path::{Path, PathBuf};
+    use std::path::Path;
     use std::process::Command;
 
     /// A deterministic hash in [0,1).
@@ -371,10 +371,9 @@ except ImportError:
         Ok((mean, exposures))
     }
 
-    fn temp_dir(name: &str) -> PathBuf {
-        let dir = std::env::temp_dir().join(format!("glimpse-metrics-{name}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        dir
+    /// A fresh folder, removed when the test ends (also when it fails or skips).
+    fn temp_dir(name: &str) -> tempfile::TempDir {
+        tempfile::Builder::new().prefix(&format!("glimpse-metrics-{name}-")).tempdir().unwrap()
     }
 
     /// LDR-FLIP against `flip-evaluator` on the PNGs our writer produces (the same 8-bit sRGB
@@ -382,7 +381,8 @@ except ImportError:
     /// v1.2-era C++, the package is v1.7) and float rounding: 1.4e-8 when measured.
     #[test]
     fn flip_ldr_cross_check_with_flip_evaluator() {
-        let dir = temp_dir("ldr");
+        let tmp = temp_dir("ldr");
+        let dir = tmp.path();
         let reference = ldr_image(48, 40);
         let mut worst = 0.0f64;
         for (amp, seed) in [(0.05, 1), (0.3, 2)] {
@@ -406,7 +406,6 @@ except ImportError:
                 }
             }
         }
-        std::fs::remove_dir_all(&dir).ok();
         assert!(worst < 1e-6, "LDR-FLIP differs from flip-evaluator by {worst}");
     }
 
@@ -414,7 +413,8 @@ except ImportError:
     /// that agreed to 2e-7 when measured (float rounding between the C++ and our port).
     #[test]
     fn flip_hdr_cross_check_with_flip_evaluator() {
-        let dir = temp_dir("hdr");
+        let tmp = temp_dir("hdr");
+        let dir = tmp.path();
         let reference = hdr_image(48, 40);
         let cases = [
             ("5 % noise", noisy(&reference, 0.05, 3)),
@@ -455,7 +455,6 @@ except ImportError:
                 }
             }
         }
-        std::fs::remove_dir_all(&dir).ok();
         // 1e-6: measured ≤ 2e-7 with the Python API; the command-line fallback prints 6 decimals.
         assert!(worst < 1e-6, "HDR-FLIP differs from flip-evaluator by {worst:.2e}");
     }

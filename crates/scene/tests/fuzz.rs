@@ -25,14 +25,13 @@ fn cases() -> u32 {
     std::env::var("GLIMPSE_FUZZ_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1000)
 }
 
-/// A scratch folder holding a copy of the corpus, so relative references (.bin, .mtl, .obj) resolve.
-fn scratch(target: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-fuzz-{}-{target}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
+/// A scratch folder holding a copy of the corpus, so relative references (.bin, .mtl, .obj) resolve;
+/// removed when the returned `TempDir` is dropped (at the end of the test, also when it fails).
+fn scratch(target: &str) -> tempfile::TempDir {
+    let dir = tempfile::Builder::new().prefix(&format!("glimpse-fuzz-{target}-")).tempdir().unwrap();
     for e in std::fs::read_dir(corpus()).unwrap().flatten() {
         if e.path().is_file() {
-            std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
+            std::fs::copy(e.path(), dir.path().join(e.file_name())).unwrap();
         }
     }
     dir
@@ -46,7 +45,8 @@ fn mutations() -> impl Strategy<Value = Vec<Mutation>> {
 /// and loads `load_name` (the same file, or one that references it).
 fn fuzz(target: &str, seed: &str, write_name: &str, load_name: &str) {
     glimpse_core::memory_budget::set_budget(256 << 20);
-    let dir = scratch(target);
+    let tmp = scratch(target);
+    let dir = tmp.path();
     let seed_bytes = std::fs::read(corpus().join(seed)).unwrap();
     let (ok, failed, contained) = (AtomicUsize::new(0), AtomicUsize::new(0), AtomicUsize::new(0));
     let mut runner = TestRunner::new(Config { cases: cases(), failure_persistence: None, ..Config::default() });
@@ -71,7 +71,6 @@ fn fuzz(target: &str, seed: &str, write_name: &str, load_name: &str) {
         "{target}: {} cases from {seed}: {ok} loaded, {failed} refused with an error ({contained} of them a third-party reader's panic contained by the loader), 0 panics",
         ok + failed
     );
-    let _ = std::fs::remove_dir_all(&dir);
     if let Err(e) = result {
         panic!("{target}: {e}");
     }

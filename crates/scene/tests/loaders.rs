@@ -200,10 +200,9 @@ fn gltf_buffer() -> Vec<u8> {
 
 /// A 2×1 PNG: left pixel linear (0.5, 0, 0), right (0, 0, 0.5), stored sRGB-encoded.
 fn png_bytes() -> Vec<u8> {
-    // One folder per calling thread: tests run in parallel and `scratch` empties its folder, which
-    // would pull it from under another test's write.
-    let thread = format!("{:?}", std::thread::current().id()).replace(|c: char| !c.is_ascii_alphanumeric(), "");
-    let path = scratch(&format!("png-{thread}")).join("tex.png");
+    // A folder of its own per call (tests run in parallel), removed when this returns.
+    let dir = scratch("png");
+    let path = dir.join("tex.png");
     Image::from_fn(2, 1, |x, _| if x == 0 { Vec3::new(0.5, 0.0, 0.0) } else { Vec3::new(0.0, 0.0, 0.5) })
         .write(&path, ToneMap::default())
         .unwrap();
@@ -728,8 +727,7 @@ fn truncated_and_corrupted_files_never_panic() {
 
 #[test]
 fn material_models_and_fov_axis_from_toml() {
-    let dir = std::env::temp_dir().join(format!("glimpse-models-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("models");
     let path = dir.join("models.toml");
     let text = r#"
 [camera]
@@ -763,13 +761,11 @@ material = { model = "dielectric", ior = 1.33 }
         let e = glimpse_scene::load(path.to_str().unwrap()).unwrap_err().to_string();
         assert!(e.contains("models.toml") && e.contains(needle), "{bad}: {e}");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn film_filter_and_samples_from_toml() {
-    let dir = std::env::temp_dir().join(format!("glimpse-film-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = scratch("film");
     let path = dir.join("film.toml");
     std::fs::write(&path, "[film]\nfilter = \"tent\"\nsamples = 8\n[[quad]]\n").unwrap();
     let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
@@ -784,5 +780,4 @@ fn film_filter_and_samples_from_toml() {
         println!("{bad}: {e}");
         assert!(e.contains("film.toml") && e.contains(needle), "{bad}: {e}");
     }
-    std::fs::remove_dir_all(&dir).ok();
 }

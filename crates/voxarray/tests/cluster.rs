@@ -6,13 +6,13 @@ use glimpse_core::Vec3;
 use glimpse_voxarray::voxelize::{Grid, cluster_vertices};
 use glimpse_voxarray::{Array, Rows, VoxArrayParams};
 
-/// The world triangles of a scene.toml text (`name` keeps the tests' files apart: they run in
-/// parallel in one process).
+/// The world triangles of a scene.toml text, written to a folder of its own (removed when this
+/// returns or panics; `name` names the file).
 fn scene(name: &str, toml: &str) -> Vec<[Vec3; 3]> {
-    let path = std::env::temp_dir().join(format!("glimpse-cluster-{name}-{}.toml", std::process::id()));
+    let dir = tempfile::Builder::new().prefix(&format!("glimpse-cluster-{name}-")).tempdir().unwrap();
+    let path = dir.path().join(format!("{name}.toml"));
     std::fs::write(&path, toml).unwrap();
     let scene = glimpse_scene::load(path.to_str().unwrap()).expect("scene loads");
-    std::fs::remove_file(&path).ok();
     scene.at(0.0).world_triangles()
 }
 

@@ -28,10 +28,9 @@ fn params() -> VoxArrayParams {
     }
 }
 
-fn dir(test: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("glimpse-voxcache-{test}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
+/// A fresh folder, removed when the test ends (also when it fails).
+fn dir(test: &str) -> tempfile::TempDir {
+    tempfile::Builder::new().prefix(&format!("glimpse-voxcache-{test}-")).tempdir().unwrap()
 }
 
 fn answers(a: &VoxArray) -> Vec<bool> {
@@ -49,8 +48,9 @@ fn answers(a: &VoxArray) -> Vec<bool> {
 fn a_stored_array_loads_back_with_the_same_answers() {
     let (tris, p) = (triangles(), params());
     let built = VoxArray::from_triangles(&tris, &p);
-    let dir = dir("roundtrip");
-    let path = disk_cache::path_for(&dir, &tris, &p);
+    let tmp = dir("roundtrip");
+    let dir = tmp.path();
+    let path = disk_cache::path_for(dir, &tris, &p);
     assert!(disk_cache::store(&path, &built).unwrap(), "a compressed array is stored");
     let loaded = disk_cache::load(&path, &p).expect("the stored array loads");
     let (a, b) = (answers(&built), answers(&loaded));
@@ -65,20 +65,19 @@ fn a_stored_array_loads_back_with_the_same_answers() {
     // Other triangles or other parameters are another file.
     let mut moved = tris.clone();
     moved[0][0].x += 1e-3;
-    assert_ne!(disk_cache::path_for(&dir, &moved, &p), path);
-    assert_ne!(disk_cache::path_for(&dir, &tris, &VoxArrayParams { directions: 10, ..p }), path);
+    assert_ne!(disk_cache::path_for(dir, &moved, &p), path);
+    assert_ne!(disk_cache::path_for(dir, &tris, &VoxArrayParams { directions: 10, ..p }), path);
     // A plain array is not cached (2 GiB at the defaults).
     let plain = VoxArray::from_triangles(&tris, &VoxArrayParams { compress: None, ..p });
     assert!(!disk_cache::store(&dir.join("plain.bin"), &plain).unwrap());
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]
 fn bad_cache_files_are_refused_and_deleted() {
     let (tris, p) = (triangles(), params());
     let built = VoxArray::from_triangles(&tris, &p);
-    let dir = dir("bad");
-    let path = dir.join("a.bin");
+    let tmp = dir("bad");
+    let path = tmp.path().join("a.bin");
     disk_cache::store(&path, &built).unwrap();
     let good = std::fs::read(&path).unwrap();
     let payload = cache_file::decode(FORMAT, &path, &good).unwrap();
@@ -123,5 +122,4 @@ fn bad_cache_files_are_refused_and_deleted() {
     // The right file for other parameters is refused too (and rebuilt by the caller).
     std::fs::write(&path, &good).unwrap();
     assert!(disk_cache::load(&path, &VoxArrayParams { directions: 10, ..p }).is_none());
-    std::fs::remove_dir_all(&dir).ok();
 }

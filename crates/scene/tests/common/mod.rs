@@ -15,12 +15,27 @@ pub fn shared_scenes() -> Option<PathBuf> {
     }
 }
 
+/// A scratch folder, removed with its files when this is dropped (at the end of the test that
+/// holds it, also when the test fails): keep it alive while its files are used. It derefs to
+/// the folder's path.
+pub struct Scratch(tempfile::TempDir);
+
+impl std::ops::Deref for Scratch {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
+impl AsRef<Path> for Scratch {
+    fn as_ref(&self) -> &Path {
+        self.0.path()
+    }
+}
+
 /// A fresh scratch folder per test, named after the test binary and the test.
-pub fn scratch(test: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("glimpse-{}-{}-{test}", env!("CARGO_CRATE_NAME"), std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
+pub fn scratch(test: &str) -> Scratch {
+    Scratch(tempfile::Builder::new().prefix(&format!("glimpse-{}-{test}-", env!("CARGO_CRATE_NAME"))).tempdir().unwrap())
 }
 
 pub fn write(dir: &Path, name: &str, content: impl AsRef<[u8]>) -> PathBuf {
