@@ -203,8 +203,8 @@ struct TimedReference {
     ms: f64,
     render_ms: f64,
     image: Image,
-    /// Its RMSE and pixels over 2× against the converged reference (single frames only).
-    noise: Option<(f64, u64)>,
+    /// Its RMSE and pixel faults against the converged reference (single frames only).
+    noise: Option<(f64, crate::suite::PixelFaults)>,
 }
 
 pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<EvalResults> {
@@ -337,7 +337,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             // Its own noise at this spp against its converged render (single frames only), once
             // for every technique compared with it: the RMSE, and glints counted as the suite does.
             let noise = if cfg.frames.max(1) == 1 {
-                Some((Metrics::compute(&t.image, reference)?.rmse, crate::suite::PixelFaults::count(&t.image, reference).over_twice))
+                Some((Metrics::compute(&t.image, reference)?.rmse, crate::suite::PixelFaults::count(&t.image, reference)))
             } else {
                 None
             };
@@ -348,12 +348,18 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         let (reference_ms, reference_render_ms) = (timed_reference.map(|t| t.ms), timed_reference.map(|t| t.render_ms));
         // Same samples (a single frame only: accumulated frames shade other samples).
         let mut same_samples = Vec::new();
-        if let Some(TimedReference { image: exact, noise: Some((rmse, over_twice)), .. }) = timed_reference {
+        if let Some(TimedReference { image: exact, noise: Some((rmse, own)), .. }) = timed_reference {
             let m = Metrics::compute(&r.image, exact)?;
             same_samples.push(("rmse_same_samples".to_owned(), m.rmse));
             same_samples.push(("flip_same_samples".to_owned(), m.flip));
             same_samples.push(("reference_rmse_same_spp".to_owned(), *rmse));
-            same_samples.push(("reference_over_twice_pixels".to_owned(), *over_twice as f64));
+            // The reference technique's own faults at this spp, and the pixels where the
+            // technique's faults are the same pixels: what the spp's noise alone produces.
+            let (black_shared, over_shared) = crate::suite::PixelFaults::shared(&r.image, exact, reference);
+            same_samples.push(("reference_over_twice_pixels".to_owned(), own.over_twice as f64));
+            same_samples.push(("reference_black_where_lit_pixels".to_owned(), own.black_where_lit as f64));
+            same_samples.push(("over_twice_shared_pixels".to_owned(), over_shared as f64));
+            same_samples.push(("black_where_lit_shared_pixels".to_owned(), black_shared as f64));
         }
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());

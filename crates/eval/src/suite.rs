@@ -72,8 +72,37 @@ pub struct PixelFaults {
 impl PixelFaults {
     pub fn count(image: &Image, reference: &Image) -> Self {
         let nan_inf = image.pixels.iter().filter(|p| !p.is_finite()).count() as u64;
+        let (mut black, mut lit, mut level, mut over_twice) = (0, 0, 0.0f64, 0);
+        Self::scan(image, reference, |_, fault| {
+            lit += 1;
+            if let Some(reference_level) = fault.black {
+                black += 1;
+                level += reference_level;
+            }
+            over_twice += u64::from(fault.over_twice);
+        });
+        Self { nan_inf, black_where_lit: black, lit, black_reference_level: if black > 0 { level / black as f64 } else { 0.0 }, over_twice }
+    }
+
+    /// Pixels black where lit and pixels over 2× the reference that `image` and `other` (another
+    /// render against the same reference, e.g. the reference technique at the technique's own
+    /// spp) share: (black in both, over 2× in both).
+    pub fn shared(image: &Image, other: &Image, reference: &Image) -> (u64, u64) {
+        let mut faults = vec![(false, false); image.pixels.len()];
+        Self::scan(image, reference, |i, f| faults[i] = (f.black.is_some(), f.over_twice));
+        let (mut black, mut over) = (0, 0);
+        Self::scan(other, reference, |i, f| {
+            black += u64::from(faults[i].0 && f.black.is_some());
+            over += u64::from(faults[i].1 && f.over_twice);
+        });
+        (black, over)
+    }
+
+    /// Calls `visit(pixel, fault)` for every pixel where the reference is lit (nothing when the
+    /// sizes differ).
+    fn scan(image: &Image, reference: &Image, mut visit: impl FnMut(usize, LitPixel)) {
         if image.width != reference.width || image.height != reference.height {
-            return Self { nan_inf, ..Self::default() };
+            return;
         }
         let lum =
             |img: &Image| -> Vec<f32> { img.pixels.iter().map(|p| if p.is_finite() { luminance(*p).max(0.0) } else { 0.0 }).collect() };
@@ -93,22 +122,16 @@ impl PixelFaults {
         };
         let (li, lr) = (lum(image), lum(reference));
         let mean = lr.iter().sum::<f32>() / lr.len().max(1) as f32;
-        let (mut black, mut lit, mut level, mut over_twice) = (0, 0, 0.0f64, 0);
         for y in 0..h {
             for x in 0..w {
                 let (r, r_trimmed) = box3(&lr, x, y);
                 if r > 0.05 * mean {
-                    lit += 1;
                     let i = box3(&li, x, y).0;
-                    if i < 0.1 * r_trimmed {
-                        black += 1;
-                        level += (r_trimmed / mean) as f64;
-                    }
-                    over_twice += u64::from(i > 2.0 * r);
+                    let black = (i < 0.1 * r_trimmed).then_some((r_trimmed / mean) as f64);
+                    visit((y * w + x) as usize, LitPixel { black, over_twice: i > 2.0 * r });
                 }
             }
         }
-        Self { nan_inf, black_where_lit: black, lit, black_reference_level: if black > 0 { level / black as f64 } else { 0.0 }, over_twice }
     }
 
     pub fn to_pairs(self) -> [(&'static str, f64); 5] {
@@ -120,6 +143,13 @@ impl PixelFaults {
             ("over_twice_pixels", self.over_twice as f64),
         ]
     }
+}
+
+/// A pixel where the reference is lit, as [`PixelFaults::scan`] finds it.
+struct LitPixel {
+    /// Black where lit: the reference's level there (its trimmed 3 × 3 mean / its image mean).
+    black: Option<f64>,
+    over_twice: bool,
 }
 
 /// One suite scene: its file and the one-line description (its leading comment).
@@ -295,13 +325,22 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         _ => Vec::new(),
     };
     reasons.extend(not_judged);
+    // What the reference technique itself gives at this spp: the same count, and how many of the
+    // technique's faulty pixels are the same pixels (there the spp's noise alone explains them).
+    let own = |count: &str, shared: &str| match (m(count), m(shared)) {
+        (Some(n), Some(same)) => format!(
+            "; {} itself at {spp} spp has {n:.0} such pixels against its {ref_spp}-spp render, {same:.0} of them the same pixels",
+            run.reference
+        ),
+        (Some(n), None) => format!("; {} itself at {spp} spp has {n:.0} such pixels against its {ref_spp}-spp render", run.reference),
+        _ => String::new(),
+    };
     if faults.black_where_lit > 0 {
-        reasons.push(black_where_lit_reason(&run.technique, faults));
+        let noise = own("reference_black_where_lit_pixels", "black_where_lit_shared_pixels");
+        reasons.push(format!("{}{noise}", black_where_lit_reason(&run.technique, faults)));
     }
     if run.technique == "wavecache" && faults.over_twice > 0 {
-        let noise = m("reference_over_twice_pixels").map_or(String::new(), |n| {
-            format!("; {} itself at {spp} spp has {n:.0} such pixels against its {ref_spp}-spp render", run.reference)
-        });
+        let noise = own("reference_over_twice_pixels", "over_twice_shared_pixels");
         reasons.push(format!(
             "{} of {} lit pixels ({:.2} %) are over 2× pt (3 × 3 means): glints of the cached radiance, or the {spp}-spp noise of traced lobes (sharp ones, and pixels beyond the cache: trace_far){noise}",
             faults.over_twice,
@@ -933,6 +972,23 @@ mod tests {
         assert_eq!(PixelFaults::count(&dark, &lone).black_where_lit, 0);
         let reason = black_where_lit_reason("ao-roma", f);
         assert!(reason.starts_with("4 of 256 lit pixels (1.56 %)") && reason.contains("1.00× its image mean"), "{reason}");
+        // Faults two renders share: the black block and the glint against one with the same
+        // glint and another black block overlapping one column of the first's inner 2 × 2.
+        let other = Image::from_fn(16, 16, |x, y| {
+            let glint = (4..7).contains(&x) && (4..7).contains(&y);
+            let block = (9..13).contains(&x) && (8..12).contains(&y);
+            Vec3::splat(if glint {
+                4.0
+            } else if block {
+                0.0
+            } else {
+                1.0
+            })
+        });
+        let both =
+            Image::from_fn(16, 16, |x, y| if (4..7).contains(&x) && (4..7).contains(&y) { Vec3::splat(4.0) } else { image.get(x, y) });
+        assert_eq!(PixelFaults::shared(&both, &other, &reference), (2, 9));
+        assert_eq!(PixelFaults::shared(&reference, &other, &reference), (0, 0));
     }
 
     #[test]
