@@ -877,8 +877,8 @@ fn disk_cache_round_trip_and_corruption() {
     let p = WavecacheParams { diffuse_points: 100, glossy_points: 60, ..small_params() };
     let key = glimpse_wavecache::cache::cache_key(&ctx.frame, &p, 1);
     let c = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {}).unwrap();
-    let dir = std::env::temp_dir().join(format!("wavecache-test-{}", std::process::id()));
-    let path = dir.join("cache.bin");
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("cache.bin");
     c.save(&path).unwrap();
     let back = WaveCache::load(&path, key).unwrap();
     let size = std::fs::metadata(&path).unwrap().len();
@@ -894,7 +894,6 @@ fn disk_cache_round_trip_and_corruption() {
     // A setting only the runtime reads keeps the key: the cache is reused.
     let p3 = WavecacheParams { search_radius: 2.0, sharp_texels: 2.0, layers: 3, progress: false, ..p.clone() };
     assert_eq!(key, glimpse_wavecache::cache::cache_key(&ctx.frame, &p3, 1));
-    std::fs::remove_dir_all(&dir).ok();
 }
 
 #[test]

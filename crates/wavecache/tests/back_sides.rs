@@ -9,6 +9,8 @@
 //! the back's mean 0.9017 with one-sided points (pt: 0.0075, 120× less), 0 with the side test
 //! alone, 0.0074 with the back's own points.
 
+mod common;
+
 use glimpse_render::pt::PathTracer;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_trace::GBuffer;
@@ -48,12 +50,7 @@ fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> (glimpse_co
 
 #[test]
 fn a_walls_back_gets_its_own_light_not_its_fronts() {
-    let dir = std::env::temp_dir().join(format!("glimpse-back-sides-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path = dir.join("wall-back.toml");
-    std::fs::write(&path, SCENE).unwrap();
-    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
-    let _ = std::fs::remove_dir_all(&dir);
+    let scene = common::scene_from_toml(SCENE);
 
     let ctx = FrameContext::new(&scene, 0.0, 40, 30);
     let g = ctx.gbuffer();

@@ -82,8 +82,8 @@ fn mutated_cache_files_are_rejected_or_harmless() {
     let key = glimpse_wavecache::cache::cache_key(&ctx.frame, &p, 1);
     let original = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, key, &|_| {}).unwrap();
     let reference = shade_all(&original, &p, &ctx, &g);
-    let dir = std::env::temp_dir().join(format!("wavecache-mutation-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().to_path_buf();
     let path = dir.join("cache.bin");
     original.save(&path).unwrap();
     let file = std::fs::read(&path).unwrap();
@@ -256,5 +256,4 @@ fn mutated_cache_files_are_rejected_or_harmless() {
     assert!(first.pixels == second.pixels, "the rebuilt cache renders the same image");
     assert!(WaveCache::load(&disk_path, glimpse_wavecache::cache::cache_key(&ctx.frame, &p_disk, 1)).is_ok(), "the file was rewritten");
     println!("end to end: a corrupt disk cache was replaced and the image is bit-identical");
-    std::fs::remove_dir_all(&dir).ok();
 }

@@ -3,6 +3,8 @@
 //! texels' own rays by the balance heuristic. The maps must keep their expectation (the estimator
 //! stays unbiased) and lose variance where the light is small and bright.
 
+mod common;
+
 use glimpse_core::{Rng, Vec3};
 use glimpse_render::FrameContext;
 use glimpse_wavecache::bake::Integrator;
@@ -25,10 +27,7 @@ fn light_samples_keep_the_maps_expectation_and_cut_their_noise() {
         [[quad]]\nsize = [3.0, 3.0]\nmaterial = { base_color = [0.5, 0.5, 0.5] }\n\
         [[box]]\nsize = [0.4, 0.4, 0.4]\ntranslate = [-0.5, 0.2, -0.3]\nmaterial = { base_color = [0.7, 0.3, 0.2] }\n\
         [[sphere]]\nradius = 0.04\nsegments = 12\ntranslate = [0.3, 0.5, 0.1]\nmaterial = { base_color = [0.0, 0.0, 0.0], emission = [400.0, 400.0, 400.0] }\n";
-    let path = std::env::temp_dir().join(format!("glimpse-map-lights-{}.toml", std::process::id()));
-    std::fs::write(&path, toml).unwrap();
-    let mut scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
-    std::fs::remove_file(&path).ok();
+    let mut scene = common::scene_from_toml(toml);
     scene.environment = glimpse_scene::load("glossy").unwrap().environment;
     assert!(scene.environment.is_some(), "the glossy scene has a sky");
     let ctx = FrameContext::new(&scene, 0.0, 8, 8);

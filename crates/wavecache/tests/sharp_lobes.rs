@@ -3,6 +3,8 @@
 //! beside a small bright emitter is neither a glint many times `pt` nor dark; the paper's rule
 //! (`trace_sharp=false`) is kept for comparison.
 
+mod common;
+
 use glimpse_core::{Image, luminance};
 use glimpse_render::pt::PathTracer;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
@@ -36,10 +38,7 @@ fn a_near_mirror_sphere_beside_a_small_emitter_matches_pt() {
         [[quad]]\nsize = [3.0, 1.5]\ntranslate = [0.0, 0.75, -0.5]\nrotate = { axis = [1.0, 0.0, 0.0], degrees = 90.0 }\nmaterial = { base_color = [0.6, 0.6, 0.6] }\n\
         [[sphere]]\nradius = 0.15\ntranslate = [0.0, 0.15, 0.0]\nmaterial = { base_color = [0.9, 0.9, 0.92], metallic = 1.0, roughness = 0.12 }\n\
         [[sphere]]\nradius = 0.03\nsegments = 16\ntranslate = [0.15, 0.4, 0.3]\nmaterial = { base_color = [0.0, 0.0, 0.0], emission = [300.0, 300.0, 300.0] }\n";
-    let path = std::env::temp_dir().join(format!("glimpse-sharp-{}.toml", std::process::id()));
-    std::fs::write(&path, toml).unwrap();
-    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
-    std::fs::remove_file(&path).ok();
+    let scene = common::scene_from_toml(toml);
     let ctx = FrameContext::new(&scene, 0.0, 48, 36);
     let g = ctx.gbuffer();
     let sphere = scene.materials.iter().position(|m| m.roughness == 0.12).unwrap() as u32;

@@ -4,6 +4,8 @@
 //! red box (its light is a sky and an area light: no punctual light, so those surfaces are shaded
 //! by the cache alone, Eq. 20).
 
+mod common;
+
 use glimpse_render::pt::PathTracer;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_scene::Scene;
@@ -95,10 +97,7 @@ fn black_texels_keep_their_specular_highlight() {
     let toml = "[camera]\nposition = [0.0, 0.6, 1.6]\ntarget = [0.0, 0.0, -0.2]\nfov_y_degrees = 40.0\n\
         [[quad]]\nsize = [3.0, 3.0]\nmaterial = { base_color = [1.0, 1.0, 1.0], roughness = 0.3, texture = { checker = { cells = 8, colors = [[0.0, 0.0, 0.0], [1.0, 1.0, 1.0]] } } }\n\
         [[quad]]\nsize = [1.2, 0.5]\ntranslate = [0.0, 0.6, -1.0]\nrotate = { axis = [1.0, 0.0, 0.0], degrees = 70.0 }\nmaterial = { base_color = [0.0, 0.0, 0.0], emission = [20.0, 20.0, 20.0] }\n";
-    let path = std::env::temp_dir().join(format!("glimpse-black-texels-{}.toml", std::process::id()));
-    std::fs::write(&path, toml).unwrap();
-    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
-    std::fs::remove_file(&path).ok();
+    let scene = common::scene_from_toml(toml);
     let ctx = FrameContext::new(&scene, 0.0, 48, 36);
     let g = ctx.gbuffer();
     let floor = scene.materials.iter().position(|m| m.roughness == 0.3).unwrap() as u32;
