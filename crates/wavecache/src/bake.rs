@@ -164,8 +164,11 @@ impl<'a> Integrator<'a> {
         rng: &mut Rng,
     ) -> (Vec<[f64; 3]>, u64) {
         let h = HalfCube::new(res);
-        let k = (samples as f32).sqrt().ceil().max(1.0) as u32; // strata per axis
         let s_count = samples.max(1);
+        // A k×k grid of strata takes the first k² samples, the rest fall anywhere in the texel:
+        // every sample's texel is covered evenly (so the texel density below holds for any
+        // count; a ⌈√n⌉ grid filled in order left a non-square count's last rows unsampled).
+        let k = (s_count as f32).sqrt().floor().max(1.0) as u32;
         let texel_area = (4.0 / res as f64).powi(2);
         let env = self.frame.scene.environment.as_ref();
         let has_area = self.frame.emissive_distribution.is_some();
@@ -196,9 +199,7 @@ impl<'a> Integrator<'a> {
                     continue;
                 }
                 for s in 0..s_count {
-                    // Stratified on a k×k grid (the first `samples` strata in a random rotation).
-                    let cell = Vec2::new((s % k) as f32, ((s / k) % k) as f32);
-                    let f = (cell + rng.next_2d()) / k as f32;
+                    let f = if s < k * k { (Vec2::new((s % k) as f32, (s / k) as f32) + rng.next_2d()) / k as f32 } else { rng.next_2d() };
                     let uv = h.uv(x, y, f);
                     let Some(local) = HalfCube::direction(uv) else {
                         continue;
