@@ -88,12 +88,6 @@ impl<'a> Integrator<'a> {
         PathIntegrator { frame: self.frame, tracer: self.tracer, emitters: &self.emitters, max_depth: self.max_depth, model: self.model }
     }
 
-    /// Radiance arriving along `ray` (emission of the first hit, or the environment, included).
-    pub fn radiance_along(&self, ray: &Ray, rng: &mut Rng) -> (Vec3, u64) {
-        let a = self.arrival(ray, rng);
-        (a.emitted + a.reflected, a.rays)
-    }
-
     /// What arrives along `ray`, split for multiple importance sampling against light samples:
     /// the first hit's emission (or the environment on a miss) with the densities the light
     /// samplers give its direction, and the light the hit reflects.
@@ -172,8 +166,10 @@ impl<'a> Integrator<'a> {
         let texel_area = (4.0 / res as f64).powi(2);
         let env = self.frame.scene.environment.as_ref();
         let has_area = self.frame.emissive_distribution.is_some();
+        // Each texel's solid angle (0 for the unused corners).
+        let d_omega: Vec<f64> = (0..h.texels() as u32).map(|t| h.solid_angle(t % res, t / res)).collect();
         // Light samples per strategy: the map's share split between the lights there are.
-        let live_texels = (0..res).flat_map(|y| (0..res).map(move |x| (x, y))).filter(|&(x, y)| h.solid_angle(x, y) > 0.0).count();
+        let live_texels = d_omega.iter().filter(|&&a| a > 0.0).count();
         let strategies = has_area as u64 + env.is_some() as u64;
         let per_light = if strategies == 0 { 0 } else { (light_samples as u64 * live_texels as u64).div_ceil(strategies) };
         let (n_area, n_env) = (if has_area { per_light } else { 0 }, if env.is_some() { per_light } else { 0 });
@@ -195,7 +191,7 @@ impl<'a> Integrator<'a> {
         };
         for y in 0..res {
             for x in 0..res {
-                if h.solid_angle(x, y) <= 0.0 {
+                if d_omega[(y * res + x) as usize] <= 0.0 {
                     continue;
                 }
                 for s in 0..s_count {
@@ -253,13 +249,7 @@ impl<'a> Integrator<'a> {
                 splat(d, le, 0.0, pdf, &shadow, f32::INFINITY, &mut rays);
             }
         }
-        let img = (0..h.texels())
-            .map(|t| {
-                let (x, y) = (t as u32 % res, t as u32 / res);
-                let d_omega = h.solid_angle(x, y);
-                if d_omega > 0.0 { integral[t].map(|v| v / d_omega) } else { [0.0; 3] }
-            })
-            .collect();
+        let img = integral.iter().zip(&d_omega).map(|(sum, &a)| if a > 0.0 { sum.map(|v| v / a) } else { [0.0; 3] }).collect();
         (img, rays)
     }
 }
