@@ -27,6 +27,7 @@
 //! the masks are packed bits (u32 halves of the CPU's u64 words), not one R32 texel per pixel.
 
 use crate::areas::WorldMesh;
+use crate::bright::BrightDirections;
 use crate::grid::{Grid, MAX_RESOLUTION};
 use crate::{AutoBudget, DvfParams, PointSampling, Rounding, Unshadowed};
 use glimpse_core::sh::Sh9;
@@ -162,6 +163,11 @@ struct ShadeUniform {
     rng: [u32; 4],
     grid: [f32; 4],
     env: [f32; 4],
+    /// `bright`'s luminance threshold (x; the rest 0).
+    bright: [f32; 4],
+    /// `bright`'s octahedral pixels at `bright::RESOLUTION` (32² bits), 32 to a word (all 0
+    /// when off).
+    bright_pixels: [[u32; 4]; 8],
 }
 
 fn lo_hi(v: u64) -> [u32; 2] {
@@ -694,6 +700,8 @@ pub struct GpuEnvDvf {
     /// The environment's SH (projected on the first `prepare`, as the CPU's).
     pub sh: Option<Sh9>,
     pub map_noise: Option<f32>,
+    /// The map's brightest directions (with the SH, as the CPU's).
+    pub bright: Option<BrightDirections>,
     env: Option<EnvBuffers>,
     gbuffer: ReusableBuffer,
     image: ReusableBuffer,
@@ -730,6 +738,7 @@ impl GpuEnvDvf {
             shade,
             sh: None,
             map_noise: None,
+            bright: None,
             env: None,
             gbuffer,
             image,
@@ -743,7 +752,7 @@ impl GpuEnvDvf {
     /// environment's SH and `unshadowed=auto`'s choice are made again on the next `prepare`.
     pub fn set_params(&mut self, params: &Params) -> Result<(), RenderError> {
         self.params = DvfParams::default().read(params)?;
-        (self.sh, self.map_noise, self.env) = (None, None, None);
+        (self.sh, self.map_noise, self.bright, self.env) = (None, None, None, None);
         Ok(())
     }
 
@@ -767,9 +776,13 @@ impl GpuEnvDvf {
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, frame.scene.environment.as_ref()) {
             let sh = stats.time("sh", || crate::technique::project_environment(env));
-            if self.params.auto.unshadowed {
+            if self.params.auto.unshadowed || self.params.auto.bright {
                 // Chosen after the build, with the field's occlusion (as the CPU technique).
                 self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
+            }
+            if self.params.bright || self.params.auto.bright {
+                let (sr, r) = (self.params.bright_sr, self.params.octahedral);
+                self.bright = stats.time("bright", || BrightDirections::new(env, sr, r));
             }
             let texels: Vec<[f32; 4]> = env.image.pixels.iter().map(|p| p.extend(0.0).to_array()).collect();
             let coeffs: Vec<[f32; 4]> = sh.coeffs.iter().map(|c| c.extend(0.0).to_array()).collect();
@@ -798,6 +811,9 @@ impl GpuEnvDvf {
             let fraction = crate::occluded_cell_fraction(&self.dvf.labels(&ctx)?, seen);
             self.params.unshadowed = crate::choose_unshadowed(noise, fraction);
             stats.metrics.push(("occluded_cells".to_owned(), fraction as f64));
+        }
+        if let (Some(noise), true) = (self.map_noise, self.params.auto.bright) {
+            self.params.bright = crate::choose_bright(noise);
         }
         stats.memory_bytes = self.dvf.memory_bytes() as usize;
         Ok(stats)
@@ -840,6 +856,11 @@ impl GpuEnvDvf {
             }
         };
         let p = &f.params;
+        let bright = self.bright.as_ref().filter(|_| self.params.bright);
+        let mut bright_pixels = [[0u32; 4]; 8];
+        for (w, &word) in bright.map_or(&[0u64; 16], |b| &b.pixels).iter().enumerate() {
+            bright_pixels[w / 2][2 * (w % 2)..2 * (w % 2) + 2].copy_from_slice(&lo_hi(word));
+        }
         let [lo, hi] = rng_state(self.settings.seed);
         let [pass_lo, pass_hi] = lo_hi(self.frame_index as u64);
         let uniform = ShadeUniform {
@@ -851,6 +872,8 @@ impl GpuEnvDvf {
             rng: [lo, hi, pass_lo, pass_hi],
             grid: [f.grid.origin.x, f.grid.origin.y, f.grid.origin.z, f.grid.cell_size_world],
             env: env.size,
+            bright: [bright.map_or(f32::INFINITY, |b| b.threshold), 0.0, 0.0, 0.0],
+            bright_pixels,
         };
         write(&ctx, &self.uniform, &[uniform])?;
         let b = &self.dvf.buffers;

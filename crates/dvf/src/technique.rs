@@ -29,6 +29,7 @@
 //! 9.06 → 3.15 CPU s for 11.1M traced rays; what is left of the frame is mostly the build's
 //! 25.3M rays and the shade's traced ones.
 
+use crate::bright::BrightDirections;
 use crate::raybatch::{self, Block, Former};
 use crate::rays::RaySet;
 use crate::{Dvf, DvfParams, Unshadowed};
@@ -51,8 +52,11 @@ pub struct EnvDvf {
     pub sh: Option<Sh9>,
     /// Forces every cell's label (tests of the estimator identities); `None`: the field's.
     pub force_label: Option<u8>,
-    /// The map's relative N_r-ray noise, when `unshadowed=auto` measured it.
+    /// The map's relative N_r-ray noise, when `unshadowed=auto` or `bright=auto` measured it.
     pub map_noise: Option<f32>,
+    /// The map's brightest directions for the masks' R (with the SH, once per map); traced
+    /// when `bright` is on.
+    pub bright: Option<BrightDirections>,
 }
 
 impl EnvDvf {
@@ -61,7 +65,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays; profile=paper (sides=front)",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays bright=auto|on|off bright_sr=0.2; profile=paper (sides=front, bright=off)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))
@@ -77,6 +81,7 @@ impl EnvDvf {
             sh: None,
             force_label: None,
             map_noise: None,
+            bright: None,
         })
     }
 
@@ -89,6 +94,7 @@ impl EnvDvf {
             sh: self.sh.as_ref()?,
             unshadowed: self.params.unshadowed,
             trace_unknown: self.params.trace_unknown,
+            bright: self.bright.as_ref().filter(|_| self.params.bright),
             force_label: self.force_label,
         })
     }
@@ -147,6 +153,8 @@ pub struct Runtime<'a> {
     pub unshadowed: Unshadowed,
     /// Also trace rays whose pixel is in neither mask (`unknown=trace`; the paper skips them).
     pub trace_unknown: bool,
+    /// Also trace rays toward the map's brightest directions (`bright`; the paper: `None`).
+    pub bright: Option<&'a BrightDirections>,
     pub force_label: Option<u8>,
 }
 
@@ -206,9 +214,10 @@ impl Runtime<'_> {
             }
             let pixel = crate::grid::octahedral_pixel(d, r);
             let (v, o) = self.dvf.masks.bits(cell, pixel);
+            let bright = self.bright.is_some_and(|b| b.may_hold(pixel) && b.holds(d, || self.env.radiance(d)));
             if label == 1 {
                 // Mostly occluded: trace inside the visible region, add what escapes.
-                if v || (self.trace_unknown && !o) {
+                if v || (self.trace_unknown && !o) || bright {
                     rays += 1;
                     if !self.vis.occluded(&s.spawn(d), f32::INFINITY) {
                         sum += self.env.radiance(d) * inv;
@@ -219,7 +228,7 @@ impl Runtime<'_> {
                     unshadowed += self.env.radiance(d) * inv;
                 }
                 // Mostly visible: trace inside the occluded region, add what is blocked.
-                if o || (self.trace_unknown && !v) {
+                if o || (self.trace_unknown && !v) || bright {
                     rays += 1;
                     if self.vis.occluded(&s.spawn(d), f32::INFINITY) {
                         sum += self.env.radiance(d) * inv;
@@ -263,7 +272,7 @@ impl Runtime<'_> {
             let v = masks.visible[cell * words + w].load(Ordering::Relaxed);
             let o = masks.occluded[cell * words + w].load(Ordering::Relaxed);
             *t = if label == 1 { v | (unknown & !o) } else { o | (unknown & !v) };
-            any |= *t;
+            any |= *t | self.bright.map_or(0, |b| b.coarse[w]);
         }
         let inv = 1.0 / set.count as f32;
         let rays_unshadowed = label != 1 && self.unshadowed == Unshadowed::Rays;
@@ -287,6 +296,16 @@ impl Runtime<'_> {
         }
         for (t, u) in trace.iter_mut().zip(b.used) {
             *t &= u;
+        }
+        if let Some(bright) = self.bright {
+            // Rays toward the map's brightest texels, whatever the masks say.
+            for k in bits(&b.used) {
+                let traced = (trace[k / 64] >> (k % 64)) & 1 == 1;
+                let d = b.direction(k);
+                if !traced && bright.may_hold(b.pixel[k]) && bright.holds(d, || raybatch::radiance(self.env, d)) {
+                    trace[k / 64] |= 1 << (k % 64);
+                }
+            }
         }
         let mut unshadowed = Vec3::ZERO;
         if rays_unshadowed {
@@ -375,10 +394,14 @@ impl Technique for EnvDvf {
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, ctx.frame.scene.environment.as_ref()) {
             self.sh = Some(stats.time("sh", || project_environment(env)));
-            if self.params.auto.unshadowed {
+            if self.params.auto.unshadowed || self.params.auto.bright {
                 // Once per map, as the SH: how noisy N_r rays of it are (with the field's
-                // occlusion, below) decides E_unshad's source.
+                // occlusion, below) decides E_unshad's source, and whether bright rays are traced.
                 self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
+            }
+            if self.params.bright || self.params.auto.bright {
+                let (sr, r) = (self.params.bright_sr, self.params.octahedral);
+                self.bright = stats.time("bright", || BrightDirections::new(env, sr, r));
             }
         }
         let reuse = self.dvf.take().map(|d| d.masks);
@@ -400,9 +423,15 @@ impl Technique for EnvDvf {
             if self.params.auto.unshadowed {
                 self.params.unshadowed = crate::choose_unshadowed(noise, occluded);
             }
+            if self.params.auto.bright {
+                self.params.bright = crate::choose_bright(noise);
+            }
             stats.metrics.push(("map_noise".to_owned(), noise as f64));
             stats.metrics.push(("unshadowed_rays".to_owned(), (self.params.unshadowed == Unshadowed::Rays) as u8 as f64));
         }
+        // The share of the map's power that `bright` traces exactly (0: off).
+        let bright = self.bright.as_ref().filter(|_| self.params.bright).map_or(0.0, |b| b.part.power_fraction);
+        stats.metrics.push(("bright_power".to_owned(), bright as f64));
         stats.memory_bytes = stats.memory_bytes.max(dvf.memory_bytes());
         self.dvf = Some(dvf);
         Ok(stats)

@@ -44,6 +44,10 @@ fn batched_image_equals_per_ray_image_bit_for_bit() {
         "rays=200 octahedral=32",
         "rays=256 octahedral=5",
         "rays=300",
+        "bright=on bright_sr=1",
+        "bright=on octahedral=5 unshadowed=rays",
+        "bright=on rays=37 octahedral=16 bright_sr=0.05",
+        "bright=off",
     ];
     let (mut images, mut pixels, mut rays_total) = (0usize, 0usize, 0u64);
     let mut formers = vec![Former::Scalar];

@@ -305,18 +305,22 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
         "lights-voxarray" => checks.push(Check { what: "ε_s ≤ 3 %".into(), pass: m("eps_s_pct").is_some_and(|v| v <= 3.0) }),
         // The paper's ground truth traces the same N_r rays per fragment: judged on the same
         // samples, so only the field's decisions (and E_unshad's SH error) count. The target is
-        // the for low-frequency maps, which DVF assumes: a map whose N_r rays are noisy
-        // (the technique's own `map_noise`, the rule of `unshadowed=auto`) is reported, not judged.
-        "env-dvf" => match m("map_noise").filter(|&n| n > glimpse_dvf::SH_MAX_RELATIVE_NOISE as f64) {
-            None => checks.push(Check {
-                what: "RMSE vs env-exact on the same samples ≤ 0.003".into(),
-                pass: m("rmse_same_samples").or(m("rmse")).is_some_and(|v| v <= 0.003),
-            }),
-            Some(noise) => not_judged.push(format!(
-                "RMSE ≤ 0.003 not judged: the map is not low-frequency ({noise:.2} relative noise of N_r rays > {})",
-                glimpse_dvf::SH_MAX_RELATIVE_NOISE
-            )),
-        },
+        // the for low-frequency maps, which DVF assumes. A map whose N_r rays are noisy
+        // (the technique's own `map_noise`, the rule of `unshadowed=auto`) is judged too when
+        // `bright` traced its brightest part (`bright_power` > 0, the default there), and is
+        // reported, not judged, when that was turned off.
+        "env-dvf" => {
+            match m("map_noise").filter(|&n| n > glimpse_dvf::SH_MAX_RELATIVE_NOISE as f64 && m("bright_power").unwrap_or(0.0) <= 0.0) {
+                None => checks.push(Check {
+                    what: "RMSE vs env-exact on the same samples ≤ 0.003".into(),
+                    pass: m("rmse_same_samples").or(m("rmse")).is_some_and(|v| v <= 0.003),
+                }),
+                Some(noise) => not_judged.push(format!(
+                    "RMSE ≤ 0.003 not judged: the map is not low-frequency ({noise:.2} relative noise of N_r rays > {}) and bright=off",
+                    glimpse_dvf::SH_MAX_RELATIVE_NOISE
+                )),
+            }
+        }
         _ => {}
     }
     let file = |k: &str| run.images.get(k).map(|f| format!("{sub}/{f}")).unwrap_or_default();
@@ -927,9 +931,12 @@ mod tests {
         assert!(c.pass, "{:?}", c.checks);
         let c = cell("s", &run("env-dvf", 0.1, 1.0, 3.0, &[("rmse", 0.2), ("rmse_same_samples", 0.01)]), "s", 6000, 4, 64);
         assert!(!c.pass);
-        // On a map that is not low-frequency the target is reported as not judged.
+        // On a map that is not low-frequency the target is judged when `bright` traced its
+        // brightest part, and reported as not judged when it did not.
         let c = cell("s", &run("env-dvf", 0.1, 1.0, 3.0, &[("rmse_same_samples", 0.01), ("map_noise", 1.2)]), "s", 6000, 4, 64);
         assert!(c.pass && c.reasons.iter().any(|r| r.contains("not low-frequency")), "{:?} {:?}", c.checks, c.reasons);
+        let bright = [("rmse_same_samples", 0.01), ("map_noise", 1.2), ("bright_power", 0.67)];
+        assert!(!cell("s", &run("env-dvf", 0.1, 1.0, 3.0, &bright), "s", 6000, 4, 64).pass);
     }
 
     #[test]

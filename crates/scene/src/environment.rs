@@ -8,6 +8,17 @@ use glimpse_core::distribution::Distribution2D;
 use glimpse_core::{Image, Vec2, Vec3, luminance};
 use std::f32::consts::{PI, TAU};
 
+/// The brightest part of a map ([`Environment::brightest_part`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BrightPart {
+    /// Texels with luminance (unscaled) strictly above this belong to the part.
+    pub threshold: f32,
+    /// Their solid angle (sr).
+    pub solid_angle: f32,
+    /// Their share of the map's power (Σ L ω).
+    pub power_fraction: f32,
+}
+
 #[derive(Clone, Debug)]
 pub struct Environment {
     pub image: Image,
@@ -38,20 +49,10 @@ impl Environment {
     /// bright features are, for techniques whose resolution must resolve them.
     pub fn half_power_solid_angle(&self) -> f32 {
         *self.half_power.get_or_init(|| {
-            let (w, h) = (self.image.width as usize, self.image.height as usize);
-            let texel = 2.0 * PI * PI / (w * h) as f32; // (2π / w) · (π / h), times sin θ below
-            let mut texels: Vec<(f32, f32)> = (0..h)
-                .flat_map(|y| {
-                    let omega = texel * (PI * (y as f32 + 0.5) / h as f32).sin();
-                    let img = &self.image;
-                    (0..w).map(move |x| (luminance(img.pixels[y * w + x]).max(0.0), omega))
-                })
-                .collect();
-            let total: f64 = texels.iter().map(|(l, o)| (*l * *o) as f64).sum();
+            let (texels, total) = self.texels_by_luminance();
             if total.is_nan() || total <= 0.0 {
                 return 4.0 * PI;
             }
-            texels.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
             let (mut power, mut solid_angle) = (0.0f64, 0.0f32);
             for (l, o) in texels {
                 if power >= 0.5 * total {
@@ -62,6 +63,44 @@ impl Environment {
             }
             solid_angle
         })
+    }
+
+    /// The map's brightest texels spanning at most `solid_angle` sr: those whose luminance
+    /// (unscaled) is above the returned threshold, with the share of the map's power they send.
+    /// `None` for a black map or when no texel fits. Ties at the threshold stay out, so the part
+    /// may be smaller than asked.
+    pub fn brightest_part(&self, solid_angle: f32) -> Option<BrightPart> {
+        let (texels, total) = self.texels_by_luminance();
+        if total.is_nan() || total <= 0.0 {
+            return None;
+        }
+        // The first texel that no longer fits sets the threshold; those tied with it stay out.
+        let mut running = 0.0f32;
+        let fit = texels.iter().take_while(|t| {
+            running += t.1;
+            running <= solid_angle
+        });
+        let fit = fit.count();
+        let threshold = texels.get(fit).map_or(0.0, |t| t.0);
+        let part = texels.iter().take_while(|t| t.0 > threshold);
+        let (power, covered) = part.fold((0.0f64, 0.0f32), |(p, c), &(l, o)| (p + (l * o) as f64, c + o));
+        (covered > 0.0).then(|| BrightPart { threshold, solid_angle: covered, power_fraction: (power / total) as f32 })
+    }
+
+    /// Every texel's (luminance, solid angle), brightest first, and the map's power Σ L ω.
+    fn texels_by_luminance(&self) -> (Vec<(f32, f32)>, f64) {
+        let (w, h) = (self.image.width as usize, self.image.height as usize);
+        let texel = 2.0 * PI * PI / (w * h) as f32; // (2π / w) · (π / h), times sin θ below
+        let mut texels: Vec<(f32, f32)> = (0..h)
+            .flat_map(|y| {
+                let omega = texel * (PI * (y as f32 + 0.5) / h as f32).sin();
+                let img = &self.image;
+                (0..w).map(move |x| (luminance(img.pixels[y * w + x]).max(0.0), omega))
+            })
+            .collect();
+        let total: f64 = texels.iter().map(|(l, o)| (*l * *o) as f64).sum();
+        texels.sort_unstable_by(|a, b| b.0.total_cmp(&a.0));
+        (texels, total)
     }
 
     /// The same radiance from every direction (the furnace test's light).
@@ -144,6 +183,26 @@ mod tests {
         println!("one bright texel: {spot} sr (its solid angle {texel})");
         assert!((spot - texel).abs() < 1e-6, "{spot} vs {texel}");
         assert_eq!(Environment::constant(Vec3::ZERO).half_power_solid_angle(), 4.0 * PI);
+    }
+
+    /// The brightest part within a solid angle: whole texels, brightest first, ties at the
+    /// threshold left out.
+    #[test]
+    fn brightest_part_takes_the_brightest_texels_that_fit() {
+        let mut img = Image::filled(64, 32, Vec3::splat(1.0));
+        img.pixels[16 * 64 + 10] = Vec3::splat(100.0);
+        img.pixels[16 * 64 + 11] = Vec3::splat(50.0);
+        let env = Environment::new(img, 1.0);
+        let texel = 2.0 * PI * PI / (64.0 * 32.0) * (PI * 16.5 / 32.0).sin();
+        let both = env.brightest_part(2.5 * texel).unwrap();
+        println!("{both:?} (one texel {texel} sr)");
+        assert_eq!(both.threshold, 1.0);
+        assert!((both.solid_angle - 2.0 * texel).abs() < 1e-6);
+        let one = env.brightest_part(1.5 * texel).unwrap();
+        assert_eq!(one.threshold, 50.0);
+        assert!((one.power_fraction - 100.0 * texel / (150.0 * texel + 4.0 * PI - 2.0 * texel)).abs() < 1e-3);
+        assert!(env.brightest_part(0.5 * texel).is_none(), "no texel fits");
+        assert!(Environment::constant(Vec3::ONE).brightest_part(1.0).is_none(), "all tied");
     }
 
     #[test]

@@ -29,7 +29,7 @@ pub mod validate;
 
 pub use animation::{Deformation, Motion, Transform, TransformKey};
 pub use camera::{Camera, FovAxis};
-pub use environment::Environment;
+pub use environment::{BrightPart, Environment};
 pub use error::SceneError;
 pub use film::{Film, Filter};
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};

@@ -17,6 +17,10 @@ struct Shade {
     grid: vec4<f32>,
     // environment width, height, scale, 1 when there is an environment
     env: vec4<f32>,
+    // `bright`: the luminance threshold (x), and its octahedral pixels at 32², 32 to a u32 (all
+    // 0: off)
+    bright: vec4<f32>,
+    bright_pixels: array<vec4<u32>, 8>,
 }
 
 @group(0) @binding(6) var<uniform> shade: Shade;
@@ -98,6 +102,16 @@ fn cell_of(p: vec3<f32>) -> u32 {
     return (c.z * dims.y + c.y) * dims.x + c.x;
 }
 
+// `BrightDirections::holds`' pixel test (at `bright::RESOLUTION` = 32).
+fn bright_pixel(pixel: u32) -> bool {
+    return ((shade.bright_pixels[pixel / 128u][(pixel / 32u) % 4u] >> (pixel % 32u)) & 1u) == 1u;
+}
+
+// `glimpse_core::luminance`.
+fn luminance(c: vec3<f32>) -> f32 {
+    return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
+}
+
 fn mask_bit(word_base: u32, pixel: u32) -> bool {
     return ((masks[word_base + pixel / 32u] >> (pixel % 32u)) & 1u) == 1u;
 }
@@ -150,6 +164,10 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
         var traced = o || (unknown && !v);
         if label == 1u {
             traced = v || (unknown && !o);
+        }
+        // `bright`: rays toward the map's brightest texels, whatever the masks say.
+        if !traced && bright_pixel(octahedral_pixel(d, 32u)) {
+            traced = luminance(radiance(d)) > shade.bright.x;
         }
         var blocked = false;
         if traced {
