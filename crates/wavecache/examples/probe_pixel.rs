@@ -67,6 +67,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     println!("far {}; cached (after the texel) {:?}; punctual {:?}", reading.far, rt.cached(&s, wo), rt.punctual(&s, wo).0);
+    // The nearest points of the mesh by brute force, against what the query chose.
+    let pts = &cache.points[mc.first_point as usize..(mc.first_point + mc.point_count) as usize];
+    let mut near: Vec<(f32, f32, f32)> = pts
+        .iter()
+        .map(|p| {
+            (
+                (Vec3::from(p.position) - s.position).length() / mc.r_max,
+                ns.dot(Vec3::from(p.shading_normal)),
+                s.normal.dot(Vec3::from(p.position) - s.position),
+            )
+        })
+        .collect();
+    near.sort_by(|a, b| a.0.total_cmp(&b.0));
+    for (d, c, h) in near.iter().take(4) {
+        println!("nearest by brute force: {d:.2} r_max, n·n {c:.3}, height above the pixel's plane {h:.2e}");
+    }
     let wo_local = map_frame(ns).to_local(reflect(r, ns));
     for (name, tree) in &own {
         println!("{name}: Eq. 20 {:?}", rt.glossy(s.material, wo_local, *tree));

@@ -723,6 +723,64 @@ fn check_14_octree() {
     }
 }
 
+/// The runtime's capped query on a wall of Poisson points (leaves of about 30 points, 10 r_max
+/// across) with a hole just right of the octree's first split: a query in the hole lies inside
+/// the right child's box, whose points are all 5 r_max away or more, while the left child holds
+/// points within 1 r_max. Before session 19 the walk was depth first: it used the cap on the
+/// right child's leaves and never opened the left one (on `textured-glossy`'s back wall a pixel
+/// read a point 7 r_max away where one lay 0.4 r_max away, and was traced as far). Best first,
+/// the nearest point is read even with a cap of one leaf (32), and with the default cap the 4
+/// best points `blend` reads are the brute force's on every query.
+#[test]
+fn check_14b_capped_query_reads_the_nearest_points() {
+    let m = 4000;
+    let r_max = points::r_max(1.0, m);
+    let hole = Vec3::new(0.5 + 0.5 * r_max, 0.0, 0.3);
+    let samples = points::poisson_points(&unit_square(), m, 7);
+    let kept: Vec<_> = samples.iter().filter(|s| s.position.x < 0.5 || s.position.distance(hole) > 6.0 * r_max).collect();
+    let pos: Vec<Vec3> = kept.iter().map(|s| s.position).collect();
+    let nor: Vec<Vec3> = kept.iter().map(|s| s.normal).collect();
+    let (nodes, order) = points::build_octree(&pos, &nor);
+    let pts: Vec<CachePoint> = order
+        .iter()
+        .map(|&i| {
+            let (p, n) = (pos[i as usize].to_array(), nor[i as usize].to_array());
+            CachePoint { position: p, normal: n, shading_normal: n, energy: 1.0, payload: 0 }
+        })
+        .collect();
+    let default_m = WavecacheParams::default().query_m;
+    let mut rng = Rng::new(141, 0);
+    for cap in [32, default_m] {
+        let q = QueryParams {
+            r_max,
+            normal_weight: 1.0,
+            normal_cutoff: 30f32.to_radians().cos(),
+            max_candidates: cap,
+            search_radius: 8.0 * r_max,
+        };
+        let (mut nearest_missed, mut differ, mut worst) = (0, 0, 0.0f32);
+        for _ in 0..500 {
+            // In the hole, right of the split at x = 0.5.
+            let x = hole + Vec3::new((rng.next_f32() - 0.5) * r_max, 0.0, (rng.next_f32() - 0.5) * 2.0 * r_max);
+            let mut best = [(0.0, 0u32); 4];
+            let found = points::query_points_best(&nodes, &pts, &q, x, Vec3::Y, Vec3::Y, &mut best);
+            let mut all: Vec<f32> = pts.iter().map(|p| points::score(&q, x, Vec3::Y, Vec3::from(p.position), Vec3::Y)).collect();
+            all.sort_by(|a, b| b.total_cmp(a));
+            nearest_missed += (best[0].0 != all[0]) as u32;
+            differ += (found != 4 || best.iter().zip(&all).any(|(b, a)| b.0 != *a)) as u32;
+            // How much farther the nearest point read is than the true nearest, in r_max.
+            worst = worst.max(all[0] - best[0].0);
+        }
+        println!(
+            "cap {cap}: the nearest point missed on {nearest_missed} of 500 queries in the hole (at most {worst:.2} r_max farther); the 4 best differ on {differ}"
+        );
+        assert_eq!(nearest_missed, 0);
+        if cap == default_m {
+            assert_eq!(differ, 0);
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // 15–16: the cache in scenes, against the path tracer
 
