@@ -159,12 +159,13 @@ pub struct WavecacheParams {
     /// light (67 pixels over 2× `pt`). 8: see docs/techniques/wavecache.md ("The query").
     pub search_radius: f32,
     /// `trace_far` (ours, in units of the mesh's r_max; `inf` = never, `profile=paper`): a shaded
-    /// point whose chosen cache point lies farther than this, or that finds none, is shaded by
-    /// tracing its lobe as a sharp lobe is (`Runtime::traced_sample`, at the pixel's spp) rather
-    /// than from a point that cached another place's light. The cache's points follow area, so
-    /// a surface with no point of its own orientation near (Sponza's ledges and undersides)
-    /// otherwise reads one several r_max away: black where lit, or over 2× `pt`. See
-    /// docs/techniques/wavecache.md ("Far points").
+    /// point whose chosen cache point lies farther than this, or outside the normal cutoff (no
+    /// point of its orientation within the search radius; session 19), or that finds none, is
+    /// shaded by tracing its lobe as a sharp lobe is (`Runtime::traced_sample`, at the pixel's
+    /// spp) rather than from a point that cached another place's light. The cache's points
+    /// follow area, so a surface with no point of its own orientation near (Sponza's ledges and
+    /// undersides) otherwise reads one several r_max away or turned 90°: black where lit, or
+    /// over 2× `pt`. See docs/techniques/wavecache.md ("Far points").
     pub trace_far: f32,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max

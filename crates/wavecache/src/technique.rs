@@ -53,7 +53,8 @@ pub struct Reading<'a> {
     /// The points blended (`blend`) and their weights, summing to 1: the best point alone where
     /// no point lies within the kernel.
     blended: [(Option<&'a CachePoint>, f32); MAX_BLEND],
-    /// The best point is too far to stand for the shaded point's light (`trace_far`).
+    /// The best point cannot stand for the shaded point's light (`trace_far`): too far, or
+    /// outside the normal cutoff.
     pub far: bool,
 }
 
@@ -364,7 +365,12 @@ impl<'a> Runtime<'a> {
         };
         let point = &pts[first as usize];
         reading.point = Some(point);
-        reading.far = (Vec3::from(point.position) - s.position).length() > self.params.trace_far * mc.r_max;
+        // Far, or turned away: the query takes a point outside the normal cutoff only when the
+        // search radius holds none inside it, and such a point caches another orientation's
+        // hemisphere (a pillar's side reading its top). `trace_far=inf` reads both.
+        let turned = ns.dot(Vec3::from(point.shading_normal)) < self.normal_cutoff;
+        let distant = (Vec3::from(point.position) - s.position).length() > self.params.trace_far * mc.r_max;
+        reading.far = self.params.trace_far.is_finite() && (distant || turned);
         // A biweight kernel of radius `blend_radius` × r_max times the normals' agreement,
         // inside the normal cutoff.
         let radius = self.params.blend_radius * mc.r_max;

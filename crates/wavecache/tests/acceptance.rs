@@ -3,6 +3,8 @@
 //! prints what it measured before asserting. Small configurations: 2 shared cores. No test reads
 //! or writes the user's cache (`disk_cache = false`, or a temporary folder).
 
+mod common;
+
 use glimpse_core::{Mat4, Rng, Vec2, Vec3};
 use glimpse_render::bsdf::BrdfModel;
 use glimpse_render::pt::PathTracer;
@@ -1024,6 +1026,92 @@ fn far_cache_points_are_traced_not_read() {
     println!("2000 points: {dense_far:?} % traced for being far");
     assert_eq!(dense_far, Some(0.0));
     assert!(dense.pixels == dense_read.pixels, "the same image where no point is far");
+}
+
+/// A shelf whose chamfered front edge (turned 60° from its top) has no cache point of its own
+/// (2 points on the shelf, both on the top), under a low sun in front: the query hands the
+/// edge's pixels a point of the top, near but outside the normal cutoff (another orientation's
+/// light). Such pixels are traced at the default `trace_far` though their point lies within
+/// 4 r_max (session 19), and they and the image come nearer `pt` than with every point read
+/// (`trace_far=inf`).
+#[test]
+fn turned_cache_points_are_traced_not_read() {
+    // One mesh: a shelf's top and its chamfered front edge, turned 60° from the top (Sponza's
+    // mouldings are parts of one mesh; the query reads only the shaded mesh's points, and only
+    // those whose geometric normal is on the pixel's side: a point turned 90° is never read).
+    // The edge has vertices of its own, so its normals are not smoothed into the top's.
+    let dir = tempfile::tempdir().unwrap();
+    let obj = "v -0.6 0.6 -0.6\nv 0.6 0.6 -0.6\nv 0.6 0.6 0.6\nv -0.6 0.6 0.6\n\
+               v -0.6 0.574 0.615\nv 0.6 0.574 0.615\nv 0.6 0.6 0.6\nv -0.6 0.6 0.6\n\
+               f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n";
+    std::fs::write(dir.path().join("shelf.obj"), obj).unwrap();
+    let toml = r#"
+name = "shelf"
+[camera]
+position = [0.3, 0.75, 1.2]
+target = [0.0, 0.6, 0.3]
+fov_y_degrees = 45.0
+[environment]
+sky = { sun_direction = [0.0, 0.25, 1.0], sun_radiance = 30.0, width = 64 }
+[[quad]]
+size = [2.0, 2.0]
+material = { base_color = [0.6, 0.6, 0.6] }
+[[mesh]]
+file = "shelf.obj"
+material = { base_color = [0.7, 0.5, 0.4] }
+"#;
+    std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
+    let scene = glimpse_scene::load(dir.path().join("scene.toml").to_str().unwrap()).unwrap();
+    let ctx = FrameContext::new(&scene, 0.0, 64, 48);
+    let g = ctx.gbuffer();
+    let reference = pt_reference(&ctx, &g, 256, 5);
+    let settings = Settings { spp: 16, seed: 1 };
+    // 8 points: 2 on the shelf, both on its top.
+    let params = |trace_far: f32| WavecacheParams { diffuse_points: 8, glossy_points: 8, min_points: 1, trace_far, ..small_params() };
+    let mut t = Wavecache::with_params(&settings, params(WavecacheParams::default().trace_far));
+    t.prepare(&ctx).expect("prepare");
+    // Which pixels read a point near but turned away, and whether each is traced.
+    let (mut turned, mut turned_traced, mut distant, mut none) = (0, 0, 0, 0);
+    let mut turned_pixels = Vec::new();
+    {
+        let cache = t.cache.as_ref().unwrap();
+        let rt = Runtime::new(cache, &t.params, &ctx.frame, &ctx.tracer);
+        let cutoff = t.params.normal_cutoff_deg.to_radians().cos();
+        for i in (0..g.len()).filter(|&i| g.is_hit(i)) {
+            let s = ShadePoint::at_pixel(&g, i);
+            let wo = -g.view_dir[i];
+            let reading = rt.point_for(&s, wo);
+            let Some(p) = reading.point else {
+                none += 1;
+                continue;
+            };
+            let r_max = cache.meshes[s.instance as usize].r_max;
+            let near = Vec3::from(p.position).distance(s.position) <= t.params.trace_far * r_max;
+            distant += usize::from(!near);
+            if near && s.facing_normal(wo).dot(Vec3::from(p.shading_normal)) < cutoff {
+                turned += 1;
+                turned_traced += usize::from(reading.far);
+                turned_pixels.push(i);
+            }
+        }
+    }
+    let mut traced = ctx.image();
+    t.render(&ctx, &g, &mut traced).expect("render");
+    let mut r = Wavecache::with_params(&settings, params(f32::INFINITY));
+    let read = render(&mut r, &ctx, &g);
+    let (e_read, e_traced) = (mse(&read, &reference), mse(&traced, &reference));
+    let on_turned = |img: &glimpse_core::Image| {
+        let err = |i: usize| ((img.pixels[i] - reference.pixels[i]) * (img.pixels[i] - reference.pixels[i])).element_sum() as f64 / 3.0;
+        turned_pixels.iter().map(|&i| err(i)).sum::<f64>() / turned_pixels.len().max(1) as f64
+    };
+    let (t_read, t_traced) = (on_turned(&read), on_turned(&traced));
+    println!(
+        "{turned} pixels read a point within trace_far but turned away ({turned_traced} traced), {distant} a distant one, {none} none; \
+         MSE against pt on them: read {t_read:.3e}, traced {t_traced:.3e}; on the image: {e_read:.3e} → {e_traced:.3e}"
+    );
+    assert!(turned > 100, "the chamfer has no point of its orientation");
+    assert_eq!(turned_traced, turned);
+    assert!(t_traced < 0.9 * t_read && e_traced < e_read, "tracing them brings the image nearer pt");
 }
 
 #[test]
