@@ -3,8 +3,6 @@
 //! prints what it measured before asserting. Small configurations: 2 shared cores. No test reads
 //! or writes the user's cache (`disk_cache = false`, or a temporary folder).
 
-mod common;
-
 use glimpse_core::{Mat4, Rng, Vec2, Vec3};
 use glimpse_render::bsdf::BrdfModel;
 use glimpse_render::pt::PathTracer;
