@@ -98,7 +98,7 @@ impl BrightDirections {
     /// Whether the ray along `d` is bright: its pixel at [`RESOLUTION`] holds bright texels and
     /// `radiance(d)` (only then looked up) is above the threshold.
     #[inline]
-    pub fn holds(&self, d: Vec3, radiance: impl FnOnce() -> Vec3) -> bool {
+    pub fn holds(&self, d: Vec3, radiance: &dyn Fn() -> Vec3) -> bool {
         bit(&self.pixels, octahedral_pixel(d, RESOLUTION)) && luminance(radiance()) > self.threshold
     }
 }

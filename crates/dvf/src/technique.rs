@@ -214,7 +214,7 @@ impl Runtime<'_> {
             }
             let pixel = crate::grid::octahedral_pixel(d, r);
             let (v, o) = self.dvf.masks.bits(cell, pixel);
-            let bright = self.bright.is_some_and(|b| b.may_hold(pixel) && b.holds(d, || self.env.radiance(d)));
+            let bright = self.bright.is_some_and(|b| b.may_hold(pixel) && b.holds(d, &|| self.env.radiance(d)));
             if label == 1 {
                 // Mostly occluded: trace inside the visible region, add what escapes.
                 if v || (self.trace_unknown && !o) || bright {
@@ -297,29 +297,28 @@ impl Runtime<'_> {
         for (t, u) in trace.iter_mut().zip(b.used) {
             *t &= u;
         }
-        if let Some(bright) = self.bright {
-            // Rays toward the map's brightest texels, whatever the masks say.
-            for k in bits(&b.used) {
-                let traced = (trace[k / 64] >> (k % 64)) & 1 == 1;
-                let d = b.direction(k);
-                if !traced && bright.may_hold(b.pixel[k]) && bright.holds(d, || raybatch::radiance(self.env, d)) {
-                    trace[k / 64] |= 1 << (k % 64);
-                }
-            }
-        }
+        // `bright`: a ray toward the map's brightest texels is traced whatever the masks say.
+        let is_bright = |k: usize, radiance: &dyn Fn() -> Vec3| {
+            self.bright.is_some_and(|bright| bright.may_hold(b.pixel[k]) && bright.holds(b.direction(k), radiance))
+        };
         let mut unshadowed = Vec3::ZERO;
         if rays_unshadowed {
-            // In chunks: every tap's texels prefetched before the first is read.
-            let mut taps = [raybatch::Tap::default(); TRACE_BATCH];
+            // In chunks: every tap's texels prefetched before the first is read. The radiance
+            // read for E_unshad also decides `bright`.
+            let mut taps = [(0usize, raybatch::Tap::default()); TRACE_BATCH];
             let mut m = 0;
-            let add = |taps: &[raybatch::Tap], unshadowed: &mut Vec3| {
-                for t in taps {
-                    *unshadowed += raybatch::tap_radiance(self.env, t) * inv;
+            let mut add = |taps: &[(usize, raybatch::Tap)], unshadowed: &mut Vec3| {
+                for &(k, ref t) in taps {
+                    let l = raybatch::tap_radiance(self.env, t);
+                    *unshadowed += l * inv;
+                    if is_bright(k, &|| l) {
+                        trace[k / 64] |= 1 << (k % 64);
+                    }
                 }
             };
             for k in bits(&b.used) {
-                taps[m] = raybatch::tap(self.env, b.direction(k));
-                raybatch::prefetch(self.env, &taps[m]);
+                taps[m] = (k, raybatch::tap(self.env, b.direction(k)));
+                raybatch::prefetch(self.env, &taps[m].1);
                 m += 1;
                 if m == TRACE_BATCH {
                     add(&taps, &mut unshadowed);
@@ -327,6 +326,12 @@ impl Runtime<'_> {
                 }
             }
             add(&taps[..m], &mut unshadowed);
+        } else if self.bright.is_some() {
+            for k in bits(&b.used) {
+                if is_bright(k, &|| raybatch::radiance(self.env, b.direction(k))) {
+                    trace[k / 64] |= 1 << (k % 64);
+                }
+            }
         }
         // Label 1 adds what escapes, label 0 what is blocked.
         let add_when_occluded = label != 1;

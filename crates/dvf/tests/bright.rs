@@ -38,8 +38,8 @@ fn the_bright_set_is_the_maps_brightest_texels() {
     // The 16 texels fit in 0.2 sr; the background is tied at 1.0 and stays out.
     assert_eq!(b.threshold, 1.0);
     assert!(b.part.power_fraction > 0.8 && b.part.solid_angle < 0.01);
-    assert!(b.may_hold(octahedral_pixel(inside, 8)) && b.holds(inside, || env.radiance(inside)));
-    assert!(!b.holds(far, || env.radiance(far)));
+    assert!(b.may_hold(octahedral_pixel(inside, 8)) && b.holds(inside, &|| env.radiance(inside)));
+    assert!(!b.holds(far, &|| env.radiance(far)));
     // Every direction that reads the square through the bilinear lookup is marked, also at its
     // border (a lookup point within one texel of a bright texel's centre).
     let mut rng = glimpse_core::Rng::new(3, 0);
@@ -49,7 +49,7 @@ fn the_bright_set_is_the_maps_brightest_texels() {
         let d = texel(98.5 + 7.0 * u.x, 38.5 + 7.0 * u.y);
         if luminance(env.radiance(d)) > b.threshold {
             checked += 1;
-            assert!(b.may_hold(octahedral_pixel(d, 8)) && b.holds(d, || env.radiance(d)), "{d:?}");
+            assert!(b.may_hold(octahedral_pixel(d, 8)) && b.holds(d, &|| env.radiance(d)), "{d:?}");
         }
     }
     println!("{checked} directions reading the square: every one bright");
