@@ -167,6 +167,15 @@ pub struct WavecacheParams {
     /// undersides) otherwise reads one several r_max away or turned 90°: black where lit, or
     /// over 2× `pt`. See docs/techniques/wavecache.md ("Far points").
     pub trace_far: f32,
+    /// `trace_disagree` (ours; `inf`, the default and `profile=paper`, = never): a diffuse pixel
+    /// whose blended points' irradiances differ by more than this factor (brightest over
+    /// darkest luminance) is traced as a far one is. Such points straddle a shadow edge or a
+    /// bright spot the cache samples coarsely, and their weighted mean paints light into the
+    /// umbra (`studio-objects`: 63 pixels over 2× `pt`, 25 with 3). Off by default: the traced
+    /// pixels take the pixel's spp, and on the tuned `bunny-glossy` at 128 spp (0.6 % of the
+    /// pixels, its contact shadow) the shading took 3× as long. See
+    /// docs/techniques/wavecache.md ("Disagreeing points").
+    pub trace_disagree: f32,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max
     /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
@@ -254,6 +263,7 @@ impl Default for WavecacheParams {
             normal_cutoff_deg: 30.0,
             search_radius: 8.0,
             trace_far: DEFAULT_TRACE_FAR,
+            trace_disagree: f32::INFINITY,
             blend: 4,
             blend_glossy: 2,
             blend_radius: 2.0,
@@ -291,6 +301,7 @@ impl WavecacheParams {
             sharp_texels: 1.0,
             search_radius: f32::INFINITY,
             trace_far: f32::INFINITY,
+            trace_disagree: f32::INFINITY,
             blend: 1,
             blend_glossy: 1,
             enclosed_share: 1.0,
@@ -315,6 +326,7 @@ impl WavecacheParams {
             normal_cutoff_deg: d.normal_cutoff_deg,
             search_radius: d.search_radius,
             trace_far: d.trace_far,
+            trace_disagree: d.trace_disagree,
             blend: d.blend,
             blend_glossy: d.blend_glossy,
             blend_radius: d.blend_radius,
@@ -376,6 +388,7 @@ impl WavecacheParams {
             normal_cutoff_deg: params.f32("normal_cutoff_deg", base.normal_cutoff_deg, 0.0, 180.0)?,
             search_radius: params.f32("search_radius", base.search_radius, 0.0, f32::INFINITY)?,
             trace_far: params.f32("trace_far", base.trace_far, 0.0, f32::INFINITY)?,
+            trace_disagree: params.f32("trace_disagree", base.trace_disagree, 1.0, f32::INFINITY)?,
             blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
             blend_glossy: params.u32("blend_glossy", base.blend_glossy, 1, technique::MAX_BLEND as u32)?,
             blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,
