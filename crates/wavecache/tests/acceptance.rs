@@ -3,6 +3,8 @@
 //! prints what it measured before asserting. Small configurations: 2 shared cores. No test reads
 //! or writes the user's cache (`disk_cache = false`, or a temporary folder).
 
+mod common;
+
 use glimpse_core::{Mat4, Rng, Vec2, Vec3};
 use glimpse_render::bsdf::BrdfModel;
 use glimpse_render::pt::PathTracer;
@@ -1040,8 +1042,8 @@ fn far_cache_points_are_traced_not_read() {
 /// over 2× `pt` go.
 #[test]
 fn disagreeing_points_are_traced_not_blended() {
-    let dir = tempfile::tempdir().unwrap();
-    let toml = r#"
+    let scene = common::scene_from_toml(
+        r#"
 name = "box in the sun"
 [camera]
 position = [1.5, 2.2, 2.5]
@@ -1056,9 +1058,8 @@ material = { base_color = [0.6, 0.6, 0.6] }
 size = [0.6, 0.6, 0.6]
 translate = [0.0, 0.3, 0.0]
 material = { base_color = [0.7, 0.5, 0.4] }
-"#;
-    std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
-    let scene = glimpse_scene::load(dir.path().join("scene.toml").to_str().unwrap()).unwrap();
+"#,
+    );
     let ctx = FrameContext::new(&scene, 0.0, 48, 36);
     let g = ctx.gbuffer();
     let reference = pt_reference(&ctx, &g, 256, 5);
@@ -1096,11 +1097,9 @@ fn turned_cache_points_are_traced_not_read() {
     // mouldings are parts of one mesh; the query reads only the shaded mesh's points, and only
     // those whose geometric normal is on the pixel's side: a point turned 90° is never read).
     // The edge has vertices of its own, so its normals are not smoothed into the top's.
-    let dir = tempfile::tempdir().unwrap();
     let obj = "v -0.6 0.6 -0.6\nv 0.6 0.6 -0.6\nv 0.6 0.6 0.6\nv -0.6 0.6 0.6\n\
                v -0.6 0.574 0.615\nv 0.6 0.574 0.615\nv 0.6 0.6 0.6\nv -0.6 0.6 0.6\n\
                f 1 3 2\nf 1 4 3\nf 5 6 7\nf 5 7 8\n";
-    std::fs::write(dir.path().join("shelf.obj"), obj).unwrap();
     let toml = r#"
 name = "shelf"
 [camera]
@@ -1116,8 +1115,7 @@ material = { base_color = [0.6, 0.6, 0.6] }
 file = "shelf.obj"
 material = { base_color = [0.7, 0.5, 0.4] }
 "#;
-    std::fs::write(dir.path().join("scene.toml"), toml).unwrap();
-    let scene = glimpse_scene::load(dir.path().join("scene.toml").to_str().unwrap()).unwrap();
+    let scene = common::scene_from_files(toml, &[("shelf.obj", obj)]);
     let ctx = FrameContext::new(&scene, 0.0, 64, 48);
     let g = ctx.gbuffer();
     let reference = pt_reference(&ctx, &g, 256, 5);
