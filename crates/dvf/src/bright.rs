@@ -25,7 +25,8 @@ const FOOTPRINT_SAMPLES: u32 = 5;
 /// per 64 (the GPU's uniform holds them as 8 × 4 `u32`). The masks' R = 8 would be too coarse:
 /// the warehouse map's bright texels touch 34 % of its pixels, 11 % of these.
 pub const RESOLUTION: u32 = 32;
-const WORDS: usize = (RESOLUTION * RESOLUTION / 64) as usize;
+/// `u64` words of the bit set at [`RESOLUTION`].
+pub const WORDS: usize = (RESOLUTION * RESOLUTION / 64) as usize;
 
 /// Which rays are bright: their radiance's luminance is above `threshold`, which only a
 /// direction inside one of `pixels` can read.

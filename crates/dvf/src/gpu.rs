@@ -167,7 +167,7 @@ struct ShadeUniform {
     bright: [f32; 4],
     /// `bright`'s octahedral pixels at `bright::RESOLUTION` (32² bits), 32 to a word (all 0
     /// when off).
-    bright_pixels: [[u32; 4]; 8],
+    bright_pixels: [[u32; 4]; crate::bright::WORDS / 2],
 }
 
 fn lo_hi(v: u64) -> [u32; 2] {
@@ -776,14 +776,11 @@ impl GpuEnvDvf {
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, frame.scene.environment.as_ref()) {
             let sh = stats.time("sh", || crate::technique::project_environment(env));
-            if self.params.auto.unshadowed || self.params.auto.bright {
+            if self.params.wants_map_noise() {
                 // Chosen after the build, with the field's occlusion (as the CPU technique).
                 self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
             }
-            if self.params.bright || self.params.auto.bright {
-                let (sr, r) = (self.params.bright_sr, self.params.octahedral);
-                self.bright = stats.time("bright", || BrightDirections::new(env, sr, r));
-            }
+            self.bright = stats.time("bright", || self.params.bright_directions(env));
             let texels: Vec<[f32; 4]> = env.image.pixels.iter().map(|p| p.extend(0.0).to_array()).collect();
             let coeffs: Vec<[f32; 4]> = sh.coeffs.iter().map(|c| c.extend(0.0).to_array()).collect();
             self.env = Some(EnvBuffers {
@@ -857,8 +854,8 @@ impl GpuEnvDvf {
         };
         let p = &f.params;
         let bright = self.bright.as_ref().filter(|_| self.params.bright);
-        let mut bright_pixels = [[0u32; 4]; 8];
-        for (w, &word) in bright.map_or(&[0u64; 16], |b| &b.pixels).iter().enumerate() {
+        let mut bright_pixels = [[0u32; 4]; crate::bright::WORDS / 2];
+        for (w, &word) in bright.map_or(&[0u64; crate::bright::WORDS], |b| &b.pixels).iter().enumerate() {
             bright_pixels[w / 2][2 * (w % 2)..2 * (w % 2) + 2].copy_from_slice(&lo_hi(word));
         }
         let [lo, hi] = rng_state(self.settings.seed);

@@ -286,6 +286,18 @@ impl DvfParams {
         }
     }
 
+    /// Whether a map's N_r-ray noise ([`cosine_estimator_noise`]) is needed: by
+    /// `unshadowed=auto` or `bright=auto`.
+    pub fn wants_map_noise(&self) -> bool {
+        self.auto.unshadowed || self.auto.bright
+    }
+
+    /// The map's brightest directions for this `bright_sr` and octahedral R, when `bright` may
+    /// be on (`on`, or `auto` before the map's noise decides).
+    pub fn bright_directions(&self, env: &glimpse_scene::Environment) -> Option<bright::BrightDirections> {
+        (self.bright || self.auto.bright).then(|| bright::BrightDirections::new(env, self.bright_sr, self.octahedral)).flatten()
+    }
+
     /// The instances (sorted) whose samples also trace their back hemisphere: every one of
     /// `instances` with `sides=both`, none with `front`, and with `sides=seen` those
     /// `seen_from_behind` returns ([`glimpse_render::FrameContext::instances_seen_from_behind`]).

@@ -399,15 +399,12 @@ impl Technique for EnvDvf {
         let mut stats = Stats::default();
         if let (None, Some(env)) = (&self.sh, ctx.frame.scene.environment.as_ref()) {
             self.sh = Some(stats.time("sh", || project_environment(env)));
-            if self.params.auto.unshadowed || self.params.auto.bright {
+            if self.params.wants_map_noise() {
                 // Once per map, as the SH: how noisy N_r rays of it are (with the field's
                 // occlusion, below) decides E_unshad's source, and whether bright rays are traced.
                 self.map_noise = Some(stats.time("map noise", || crate::cosine_estimator_noise(env, self.params.rays)));
             }
-            if self.params.bright || self.params.auto.bright {
-                let (sr, r) = (self.params.bright_sr, self.params.octahedral);
-                self.bright = stats.time("bright", || BrightDirections::new(env, sr, r));
-            }
+            self.bright = stats.time("bright", || self.params.bright_directions(env));
         }
         let reuse = self.dvf.take().map(|d| d.masks);
         // The sample budget for this frame's size and triangle count (`points=auto` …).

@@ -390,10 +390,11 @@ impl<'a> Runtime<'a> {
             reading.blended[0] = (Some(point), 1.0);
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
-        if blend > 1 && self.params.trace_disagree.is_finite() {
+        let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
+        if diffuse && blend > 1 && self.params.trace_disagree.is_finite() {
             let lum = |p: &CachePoint| glimpse_core::luminance(self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO));
-            let (lo, hi) = reading.blended().fold((f32::INFINITY, 0.0f32), |(lo, hi), (p, _)| (lo.min(lum(p)), hi.max(lum(p))));
-            reading.far |= self.classes.get(s.material as usize) == Some(&Class::Diffuse) && hi > self.params.trace_disagree * lo;
+            let (lo, hi) = reading.blended().map(|(p, _)| lum(p)).fold((f32::INFINITY, 0.0f32), |(lo, hi), l| (lo.min(l), hi.max(l)));
+            reading.far |= hi > self.params.trace_disagree * lo;
         }
         reading
     }
