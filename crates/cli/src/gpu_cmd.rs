@@ -25,6 +25,10 @@ pub struct GpuArgs {
     pub radius: f32,
     #[arg(long, default_value_t = 0)]
     pub seed: u64,
+    /// env-dvf parameter for the env-dvf row, key=value (repeatable; env-exact gets the same
+    /// `rays`), e.g. `--set bright=off` to time the frame without it.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -138,8 +142,9 @@ pub fn run(a: GpuArgs) -> Result<()> {
     }
     // The voxel array's query on the GPU, on the same rays (glimpse-voxarray's `gpu` module).
     glimpse_voxarray::gpu::print_bench_row(&ctx, &frame, &rays, any_kernel)?;
-    // env-dvf (its defaults: N_r = 128) against env-exact, one frame each at --size.
-    for line in glimpse_dvf::gpu::bench(&ctx, &scene, a.size, a.seed, glimpse_dvf::DvfParams::default())?.lines() {
+    // env-dvf (its defaults, N_r = 128, unless --set) against env-exact, one frame each at --size.
+    let dvf = glimpse_dvf::DvfParams::default().read(&glimpse_render::Params::parse(&a.set)?)?;
+    for line in glimpse_dvf::gpu::bench(&ctx, &scene, a.size, a.seed, dvf)?.lines() {
         println!("{line}");
     }
     if let Some(note) = ctx.software_note() {

@@ -447,8 +447,12 @@ pub struct BenchRow {
     pub exact_f64: bool,
 }
 
-/// Uploads `array`, runs `rays` (as [`ray_segments`]) through the GPU query once untimed and
-/// once timed, and compares with the CPU's batched query.
+/// Timed passes of the `voxarray` bench row; the fastest is reported.
+const TIMED_PASSES: usize = 5;
+
+/// Uploads `array`, runs `rays` (as [`ray_segments`]) through the GPU query untimed (warm-up),
+/// then [`TIMED_PASSES`] times timed, keeping the fastest, and compares with the CPU's batched
+/// query.
 pub fn bench_rays(ctx: &GpuContext, array: &VoxArray, rays: &[(Ray, f32)]) -> Result<BenchRow, GpuVoxArrayError> {
     let t = std::time::Instant::now();
     let mut gpu = GpuVoxArray::new(ctx, array)?;
@@ -458,20 +462,20 @@ pub fn bench_rays(ctx: &GpuContext, array: &VoxArray, rays: &[(Ray, f32)]) -> Re
     // Untimed passes over the whole batch: the GPU's clocks and caches warm up outside the
     // measurement.
     glimpse_gpu::timer::warm_up(|| gpu.occluded_segments(ctx, &segments).map(drop))?;
-    let t = std::time::Instant::now();
-    let answers = gpu.occluded_segments(ctx, &segments)?;
-    let wall_ms = t.elapsed().as_secs_f64() * 1e3;
+    // The best of a few timed passes: the kernel takes well under a millisecond beside ~10 ms of
+    // copies per pass, so the warm-up leaves the GPU mostly idle and its clocks may still be
+    // rising (on an H200 after a 7 s CPU build of Sponza's array the first timed pass ran at a
+    // quarter of the speed of a pass with the array loaded from the cache).
+    let (mut kernel_ms, mut wall_ms, mut answers) = (f64::INFINITY, f64::INFINITY, Vec::new());
+    for _ in 0..TIMED_PASSES {
+        let t = std::time::Instant::now();
+        answers = gpu.occluded_segments(ctx, &segments)?;
+        wall_ms = wall_ms.min(t.elapsed().as_secs_f64() * 1e3);
+        kernel_ms = kernel_ms.min(gpu.last_times.iter().map(|k| k.ms).sum());
+    }
     let cpu = cpu_answers(array, &segments);
     let differ = answers.iter().zip(&cpu).filter(|(g, c)| g != c).count();
-    Ok(BenchRow {
-        segments: segments.len(),
-        kernel_ms: gpu.last_times.iter().map(|k| k.ms).sum(),
-        wall_ms,
-        upload_ms,
-        upload_bytes: gpu.bytes,
-        differ,
-        exact_f64: gpu.exact_f64,
-    })
+    Ok(BenchRow { segments: segments.len(), kernel_ms, wall_ms, upload_ms, upload_bytes: gpu.bytes, differ, exact_f64: gpu.exact_f64 })
 }
 
 /// The `voxarray` row of `glimpse bench gpu`: the default `lights-voxarray` array of `frame`

@@ -10,7 +10,7 @@
 //! scene upload (it rebuilds every frame); env-exact's has only its traversal kernels.
 
 use super::{DvfGpuError, GpuEnvDvf};
-use crate::DvfParams;
+use crate::{DvfParams, Unshadowed};
 use glimpse_core::Image;
 use glimpse_gpu::references::GpuEnvExact;
 use glimpse_gpu::timer::format_times;
@@ -48,6 +48,9 @@ pub struct BenchRow {
     /// The field's budget as chosen for this frame size.
     pub points: u32,
     pub grid: u32,
+    /// The map-dependent choices as the timed frame made them (`bright`, `unshadowed`).
+    pub bright: bool,
+    pub unshadowed: Unshadowed,
     pub dvf: FrameTimes,
     pub exact: FrameTimes,
     /// Rays env-exact traced in its timed frame.
@@ -84,6 +87,8 @@ pub fn bench(
         rays: exact.rays(),
         points: field.points,
         grid: field.grid,
+        bright: dvf.params.bright,
+        unshadowed: dvf.params.unshadowed,
         dvf: dvf_times,
         exact: exact_times,
         exact_rays: exact_stats.rays,
@@ -131,7 +136,16 @@ impl BenchRow {
         let kernels = if self.dvf.kernels.is_empty() { "-".into() } else { format_times(&self.dvf.kernels) };
         let setting = format!("{}x{}, N_r={}, 1 spp", self.width, self.height, self.rays);
         vec![
-            format!("env-dvf ({setting}, points={}, grid={}) GPU kernels: {kernels}", self.points, self.grid),
+            format!(
+                "env-dvf ({setting}, points={}, grid={}, bright={}, unshadowed={}) GPU kernels: {kernels}",
+                self.points,
+                self.grid,
+                if self.bright { "on" } else { "off" },
+                match self.unshadowed {
+                    Unshadowed::Sh => "sh",
+                    Unshadowed::Rays => "rays",
+                }
+            ),
             format!(
                 "env-dvf frame (rebuild + shading): kernels {}, wall {:.3} ms; env-exact frame ({} rays): kernels {}, wall {:.3} ms",
                 ms(self.dvf.kernel_ms),
