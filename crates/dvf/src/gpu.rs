@@ -29,7 +29,7 @@
 use crate::areas::WorldMesh;
 use crate::bright::BrightDirections;
 use crate::grid::{Grid, MAX_RESOLUTION};
-use crate::{AutoBudget, DvfParams, PointSampling, Rounding, Unshadowed};
+use crate::{AutoBudget, DvfParams, Footprint, PointSampling, Rounding, Unshadowed};
 use glimpse_core::sh::Sh9;
 use glimpse_core::{Image, Vec2, Vec3};
 use glimpse_gpu::compute::{Kernel, ReusableBuffer, hexd, hexf, read_back, storage_buffer, uniform_buffer, write};
@@ -165,6 +165,8 @@ struct ShadeUniform {
     env: [f32; 4],
     /// `bright`'s luminance threshold (x; the rest 0).
     bright: [f32; 4],
+    /// `footprint=around` (x = 1): the masks of the 2×2×2 cells around the fragment.
+    lookup: [u32; 4],
     /// `bright`'s octahedral pixels at `bright::RESOLUTION` (32² bits), 32 to a word (all 0
     /// when off).
     bright_pixels: [[u32; 4]; crate::bright::WORDS / 2],
@@ -870,6 +872,7 @@ impl GpuEnvDvf {
             grid: [f.grid.origin.x, f.grid.origin.y, f.grid.origin.z, f.grid.cell_size_world],
             env: env.size,
             bright: [bright.map_or(f32::INFINITY, |b| b.threshold), 0.0, 0.0, 0.0],
+            lookup: [(p.footprint == Footprint::Around) as u32, 0, 0, 0],
             bright_pixels,
         };
         write(&ctx, &self.uniform, &[uniform])?;

@@ -45,6 +45,21 @@ impl Grid {
     }
 }
 
+impl Grid {
+    /// The 2×2×2 cells whose centres surround `p` (clamped into the grid; repeated at its faces).
+    pub fn cells_around(&self, p: Vec3) -> [usize; 8] {
+        let q = (p - self.origin) / self.cell_size_world - Vec3::splat(0.5);
+        let base = q.floor();
+        let axis = |a: usize, o: u32| ((base[a].max(-1.0) as i64 + o as i64).clamp(0, self.dims[a] as i64 - 1)) as usize;
+        let mut out = [0; 8];
+        for (i, c) in out.iter_mut().enumerate() {
+            let (x, y, z) = (axis(0, i as u32 & 1), axis(1, (i as u32 >> 1) & 1), axis(2, (i as u32 >> 2) & 1));
+            *c = (z * self.dims[1] as usize + y) * self.dims[0] as usize + x;
+        }
+        out
+    }
+}
+
 /// Pixel index `py·R + px` of unit direction `d` in the R×R octahedral map (Cigolle et al.'s
 /// encoding, as `glimpse_core::sampling::octahedral_encode`, written with selects instead of a
 /// branch on the hemisphere: this runs for every ray of every pixel).

@@ -53,6 +53,18 @@ pub enum Unshadowed {
     Rays,
 }
 
+/// Which cells' masks a fragment reads (`footprint`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Footprint {
+    /// The cell that holds the fragment: the paper's.
+    Cell,
+    /// The union of the 2×2×2 cells whose centres surround the fragment (ours): a pixel is
+    /// trusted only where every nearby cell that saw it agrees, so a fragment away from the
+    /// samples of its own cell (an ear tip over a cell of samples under the ear) traces the rays
+    /// its neighbourhood disagrees on instead of taking its cell's word.
+    Around,
+}
+
 /// DVF settings. `Default` is the paper's Sponza setting where it has one (N_r = 128,
 /// N_P = 10M, ceiling, hash, 77 cells along the longest axis as its 77×48×34 grid,
 /// workgroups of 1024); the octahedral resolution R is not stated by the paper (our 8).
@@ -90,6 +102,8 @@ pub struct DvfParams {
     pub bright: bool,
     /// The solid angle (sr) of the map's brightest texels that `bright` traces (`bright_sr`).
     pub bright_sr: f32,
+    /// Which cells' masks a fragment reads (`footprint=around|cell`; ours, [`Footprint`]).
+    pub footprint: Footprint,
     /// Which of `points`, `grid` and `rounding` are still to be chosen from the frame
     /// ([`DvfParams::for_frame`]; `points=auto` etc., the defaults): the paper's values are
     /// sized for a GPU and Sponza, and cost minutes per frame on a CPU or on other scenes.
@@ -245,10 +259,11 @@ pub const BACK_PROBE_ACROSS: u32 = 128;
 pub const SAMPLES_PER_CELL: f32 = 25.0;
 
 /// Our defaults: the paper's, except both hemispheres (`sides=both`), rays whose pixel no sample
-/// saw traced (`unknown=trace`) and the sample budget chosen from the frame (`auto`).
+/// saw traced (`unknown=trace`), masks read over the fragment's 2×2×2 cells (`footprint=around`)
+/// and the sample budget chosen from the frame (`auto`).
 impl Default for DvfParams {
     fn default() -> Self {
-        Self { sides: Sides::Both, trace_unknown: true, auto: AutoBudget::ALL, ..Self::paper() }
+        Self { sides: Sides::Both, trace_unknown: true, footprint: Footprint::Around, auto: AutoBudget::ALL, ..Self::paper() }
     }
 }
 
@@ -282,6 +297,7 @@ impl DvfParams {
             trace_unknown: false,
             bright: false,
             bright_sr: BRIGHT_SOLID_ANGLE,
+            footprint: Footprint::Cell,
             auto: AutoBudget::default(),
         }
     }
@@ -411,6 +427,13 @@ impl DvfParams {
                 p.choice("bright", if self.bright { "on" } else { "off" }, &["off", "on"])? == "on"
             },
             bright_sr: p.f32("bright_sr", self.bright_sr, 1e-6, 4.0 * std::f32::consts::PI)?,
+            footprint: match p
+                .choice("footprint", if self.footprint == Footprint::Around { "around" } else { "cell" }, &["cell", "around"])?
+                .as_str()
+            {
+                "around" => Footprint::Around,
+                _ => Footprint::Cell,
+            },
         })
     }
 }
@@ -437,6 +460,11 @@ pub struct Dvf {
 }
 
 impl Dvf {
+    /// Cells whose masks hold any ray (the cells the samples reached).
+    pub fn seen_cells(&self) -> usize {
+        (0..self.masks.cells()).filter(|&c| self.masks.counts(c) != (0, 0)).count()
+    }
+
     /// The share of the cells that saw any sample ray whose label is `l_occ = 1` (mostly
     /// occluded): near 1 in a closed interior, low in an open scene.
     pub fn occluded_cell_fraction(&self) -> f32 {

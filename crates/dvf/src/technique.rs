@@ -32,7 +32,7 @@
 use crate::bright::BrightDirections;
 use crate::raybatch::{self, Block, Former};
 use crate::rays::RaySet;
-use crate::{Dvf, DvfParams, Unshadowed};
+use crate::{Dvf, DvfParams, Footprint, Unshadowed};
 use glimpse_core::sh::Sh9;
 use glimpse_core::{Image, Vec3};
 use glimpse_render::direct::{self, Shading};
@@ -65,7 +65,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays bright=auto|on|off bright_sr=0.2; profile=paper (sides=front, bright=off)",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays bright=auto|on|off bright_sr=0.2 footprint=around|cell; profile=paper (sides=front, bright=off, footprint=cell)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))
@@ -96,6 +96,7 @@ impl EnvDvf {
             trace_unknown: self.params.trace_unknown,
             bright: self.bright.as_ref().filter(|_| self.params.bright),
             force_label: self.force_label,
+            footprint: self.params.footprint,
         })
     }
 }
@@ -156,6 +157,8 @@ pub struct Runtime<'a> {
     /// Also trace rays toward the map's brightest directions (`bright`; the paper: `None`).
     pub bright: Option<&'a BrightDirections>,
     pub force_label: Option<u8>,
+    /// Whose masks a fragment reads (`footprint`).
+    pub footprint: Footprint,
 }
 
 /// Which runtime loop `Runtime::irradiance` runs.
@@ -187,6 +190,25 @@ impl RuntimePath {
 const TRACE_BATCH: usize = 16;
 
 impl Runtime<'_> {
+    /// The fragment's visible and occluded words: its cell's, or (footprint) the union over
+    /// the 2×2×2 cells around it.
+    fn fragment_words(&self, position: Vec3, cell: usize) -> ([u64; crate::grid::MAX_WORDS], [u64; crate::grid::MAX_WORDS]) {
+        let masks = &self.dvf.masks;
+        let words = masks.words_per_mask;
+        let (mut v, mut o) = ([0u64; crate::grid::MAX_WORDS], [0u64; crate::grid::MAX_WORDS]);
+        let mut add = |c: usize| {
+            for w in 0..words {
+                v[w] |= masks.visible[c * words + w].load(Ordering::Relaxed);
+                o[w] |= masks.occluded[c * words + w].load(Ordering::Relaxed);
+            }
+        };
+        match self.footprint {
+            Footprint::Cell => add(cell),
+            Footprint::Around => self.dvf.grid.cells_around(position).into_iter().for_each(add),
+        }
+        (v, o)
+    }
+
     /// Algorithm 3 for one fragment: (E/π, rays traced), by [`RuntimePath::from_env`]'s loop.
     pub fn irradiance(&self, s: &Shading, set: &RaySet) -> (Vec3, u64) {
         self.irradiance_by(s, set, RuntimePath::from_env())
@@ -205,6 +227,7 @@ impl Runtime<'_> {
         let cell = self.dvf.grid.cell_of(s.position);
         let label = self.force_label.unwrap_or(self.dvf.labels[cell]);
         let r = self.dvf.masks.resolution;
+        let (vw, ow) = self.fragment_words(s.position, cell);
         let inv = 1.0 / set.count as f32;
         let (mut sum, mut unshadowed, mut rays) = (Vec3::ZERO, Vec3::ZERO, 0u64);
         for k in 0..set.count {
@@ -213,7 +236,8 @@ impl Runtime<'_> {
                 continue;
             }
             let pixel = crate::grid::octahedral_pixel(d, r);
-            let (v, o) = self.dvf.masks.bits(cell, pixel);
+            let bit = |m: &[u64]| (m[pixel as usize / 64] >> (pixel % 64)) & 1 == 1;
+            let (v, o) = (bit(&vw), bit(&ow));
             let bright = self.bright.is_some_and(|b| b.may_hold(pixel) && b.holds(d, &|| self.env.radiance(d)));
             if label == 1 {
                 // Mostly occluded: trace inside the visible region, add what escapes.
@@ -268,9 +292,9 @@ impl Runtime<'_> {
         let mut select = [0u64; crate::grid::MAX_WORDS];
         let unknown = if self.trace_unknown { !0u64 } else { 0 };
         let mut any = 0u64;
+        let (vw, ow) = self.fragment_words(s.position, cell);
         for (w, t) in select[..words].iter_mut().enumerate() {
-            let v = masks.visible[cell * words + w].load(Ordering::Relaxed);
-            let o = masks.occluded[cell * words + w].load(Ordering::Relaxed);
+            let (v, o) = (vw[w], ow[w]);
             *t = if label == 1 { v | (unknown & !o) } else { o | (unknown & !v) };
             any |= *t | self.bright.map_or(0, |b| b.coarse[w]);
         }
@@ -419,6 +443,7 @@ impl Technique for EnvDvf {
         stats.metrics.push(("points".to_owned(), p.points as f64));
         stats.metrics.push(("grid".to_owned(), p.grid as f64));
         stats.metrics.push(("build_rays".to_owned(), dvf.rays_traced as f64));
+        stats.metrics.push(("seen_cells".to_owned(), dvf.seen_cells() as f64));
         let occluded = dvf.occluded_cell_fraction();
         stats.metrics.push(("occluded_cells".to_owned(), occluded as f64));
         if let Some(noise) = self.map_noise {

@@ -11,7 +11,7 @@ use glimpse_dvf::points::{self, PointSampling, Rounding, Task, point_on_triangle
 use glimpse_dvf::rays::RaySet;
 use glimpse_dvf::scan::{exclusive_scan, schedule};
 use glimpse_dvf::technique::{EnvDvf, Runtime, brute_force, project_environment};
-use glimpse_dvf::{Dvf, DvfParams, Unshadowed};
+use glimpse_dvf::{Dvf, DvfParams, Footprint, Unshadowed};
 use glimpse_render::direct::Shading;
 use glimpse_render::env::EnvExact;
 use glimpse_render::metrics::rmse;
@@ -408,7 +408,17 @@ fn check_10c_fragment_at_a_sample_point_is_brute_force() {
         let field = Dvf::build(&ctx.frame, &[], &ctx.tracer, &p, 21, 0, None, &mut stats);
         let inp = inputs(&ctx, &p);
         let s = settings(&p, 21);
-        let rt = Runtime { dvf: &field, vis: &ctx.tracer, env, sh: &sh, unshadowed, trace_unknown: false, bright: None, force_label: None };
+        let rt = Runtime {
+            dvf: &field,
+            vis: &ctx.tracer,
+            env,
+            sh: &sh,
+            unshadowed,
+            trace_unknown: false,
+            bright: None,
+            force_label: None,
+            footprint: Footprint::Cell,
+        };
         for t in inp.tasks.iter().step_by(7) {
             let k = t.triangle as usize;
             let ps = point_sample(&inp.mesh, inp.normals[k], inp.first_ids[k], t, t.first, &s);

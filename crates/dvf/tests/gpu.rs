@@ -203,8 +203,8 @@ fn env_dvf_frame_agrees_with_the_cpu() {
     let mut gpu: Option<GpuEnvDvf> = None;
     for (keys, frame_index) in [
         (&["rays=16", "points=2500", "grid=8", "unknown=trace"][..], 0),
-        (&["rays=12", "points=2000", "grid=6", "unshadowed=rays", "sides=front", "unknown=skip"][..], 2),
-        (&["rays=16", "points=300", "grid=8", "unknown=skip", "bright=on", "bright_sr=1"][..], 1),
+        (&["rays=12", "points=2000", "grid=6", "unshadowed=rays", "sides=front", "unknown=skip", "footprint=cell"][..], 2),
+        (&["rays=16", "points=300", "grid=8", "unknown=skip", "bright=on", "bright_sr=1", "footprint=cell"][..], 1),
     ] {
         let mut frame = FrameContext::new(&scene, 0.0, 40, 30);
         frame.frame_index = frame_index;
@@ -245,15 +245,19 @@ fn env_dvf_frame_agrees_with_the_cpu() {
         }
         assert_eq!((mask_differ, label_differ), (0, 0));
         assert!(mean > 0.01, "the image is lit");
-        if keys.contains(&"bright=on") {
-            // The bright rays change the image (so the GPU's agreement covers them).
-            let off: Vec<&str> = keys.iter().map(|k| if *k == "bright=on" { "bright=off" } else { k }).collect();
-            let mut cpu_off = EnvDvf::new(&settings, &Params::parse(&off).unwrap()).unwrap();
+        // `bright` and the default `footprint=around` change the image (so the GPU's agreement
+        // covers them): the CPU without them differs.
+        let without =
+            if keys.contains(&"bright=on") { Some("bright=off") } else { (!keys.contains(&"footprint=cell")).then_some("footprint=cell") };
+        if let Some(off) = without {
+            let mut off_keys: Vec<&str> = keys.iter().copied().filter(|k| *k != "bright=on").collect();
+            off_keys.push(off);
+            let mut cpu_off = EnvDvf::new(&settings, &Params::parse(&off_keys).unwrap()).unwrap();
             let mut off_image = frame.image();
             cpu_off.prepare(&frame).unwrap();
             cpu_off.render(&frame, &g, &mut off_image).unwrap();
             let changed = cpu_image.pixels.iter().zip(&off_image.pixels).filter(|(a, b)| a != b).count();
-            println!("  bright=off on the CPU: {changed} pixels differ from bright=on");
+            println!("  {off} on the CPU: {changed} pixels differ");
             assert!(changed > 0);
         }
         assert!(worst <= 2e-3 && rmse <= 2e-4, "max |diff| {worst}, RMSE {rmse}");

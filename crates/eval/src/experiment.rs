@@ -114,6 +114,24 @@ pub struct Rendered {
 
 /// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
 /// (references at high spp, a voxel array build, a wavelet precompute).
+/// `env-exact` converged (`converged=true`: 4,096 rays, MIS with the map's importance sampling)
+/// on the run's GBuffer, from the reference cache when there.
+fn converged_env_exact(cfg: &EvalConfig, ctx: &FrameContext, gbuffer: &GBuffer, log: &mut impl FnMut(&str)) -> Result<Image> {
+    let params = Params::parse(&["converged=true"])?;
+    let settings = Settings { spp: 1, seed: cfg.seed.wrapping_add(0x5eed) };
+    let size = format!("{}x{}", cfg.width, cfg.height);
+    let (seed, time) = (settings.seed.to_string(), cfg.time.to_string());
+    let key = Cache::key(&["env-exact", "converged=true", &size, &seed, &time, &cfg.overrides.cache_key()], &cfg.scene_spec);
+    if let Some(image) = cfg.cache.load(&key).filter(|i| i.width == cfg.width && i.height == cfg.height) {
+        return Ok(image);
+    }
+    log("rendering env-exact converged=true (env-dvf's SH E_unshad is judged against it)");
+    let mut exact = glimpse_render::env::EnvExact::new(&settings, &params)?;
+    let image = render_once(&mut exact, ctx, gbuffer)?.image;
+    cfg.cache.store(&key, &image);
+    Ok(image)
+}
+
 pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &GBuffer) -> Result<Rendered> {
     let id = technique.id();
     let prepare = with_spinner(&format!("preparing {id}"), || technique.prepare(ctx))?;
@@ -360,6 +378,14 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             same_samples.push(("reference_black_where_lit_pixels".to_owned(), own.black_where_lit as f64));
             same_samples.push(("over_twice_shared_pixels".to_owned(), over_shared as f64));
             same_samples.push(("black_where_lit_shared_pixels".to_owned(), black_shared as f64));
+        }
+        // env-dvf with E_unshad from the map's SH is not on env-exact's samples in its
+        // unshadowed term: both are measured against env-exact converged (4,096 MIS rays), once.
+        let sh_unshadowed = r.prepare.metrics.iter().any(|(k, v)| k == "unshadowed_rays" && *v == 0.0);
+        if let (true, "env-dvf", Some(TimedReference { image: exact, .. })) = (sh_unshadowed, id.as_str(), timed_reference) {
+            let converged = converged_env_exact(cfg, &ctx, &gbuffer, &mut log)?;
+            same_samples.push(("rmse_converged".to_owned(), Metrics::compute(&r.image, &converged)?.rmse));
+            same_samples.push(("reference_rmse_converged".to_owned(), Metrics::compute(exact, &converged)?.rmse));
         }
         let mut ms = BTreeMap::new();
         ms.insert("prepare".to_owned(), r.prepare.total_ms());

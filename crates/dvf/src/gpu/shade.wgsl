@@ -20,6 +20,8 @@ struct Shade {
     // `bright`: the luminance threshold (x), and its octahedral pixels at 32², 32 to a u32 (all
     // 0: off)
     bright: vec4<f32>,
+    // `footprint=around` (x = 1): the union of the masks of the 2×2×2 cells around the fragment
+    lookup: vec4<u32>,
     bright_pixels: array<vec4<u32>, 8>,
 }
 
@@ -112,8 +114,14 @@ fn luminance(c: vec3<f32>) -> f32 {
     return 0.2126 * c.x + 0.7152 * c.y + 0.0722 * c.z;
 }
 
-fn mask_bit(word_base: u32, pixel: u32) -> bool {
-    return ((masks[word_base + pixel / 32u] >> (pixel % 32u)) & 1u) == 1u;
+// u32 words per mask at the largest R (32² bits).
+const MAX_MASK_WORDS: u32 = 32u;
+
+// One axis of `Grid::cells_around`: the cell below `q` (the fragment's position in cells, less
+// half a cell) plus `o`, clamped into the grid.
+fn around_axis(q: f32, o: u32, dim: u32) -> u32 {
+    let below = i32(min(max(floor(q), -1.0), f32(dim))) + i32(o);
+    return u32(clamp(below, 0, i32(dim) - 1));
 }
 
 @compute @workgroup_size(64)
@@ -141,8 +149,28 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
     let cell = cell_of(position);
     let label = labels[cell];
     let words = shade.flags.z;
-    let visible_base = cell * words;
-    let occluded_base = shade.cells.w * words + cell * words;
+    // The fragment's visible and occluded words: its cell's, or the union over the 2×2×2 cells
+    // around it (`Runtime::fragment_words`).
+    var visible: array<u32, MAX_MASK_WORDS>;
+    var occluded: array<u32, MAX_MASK_WORDS>;
+    let dims = shade.cells.xyz;
+    let rel = position - shade.grid.xyz;
+    let q = vec3<f32>(div_exact(rel.x, shade.grid.w), div_exact(rel.y, shade.grid.w), div_exact(rel.z, shade.grid.w)) - vec3<f32>(0.5);
+    var reads = 1u;
+    if shade.lookup.x == 1u {
+        reads = 8u;
+    }
+    for (var n = 0u; n < reads; n++) {
+        var c = cell;
+        if shade.lookup.x == 1u {
+            c = (around_axis(q.z, (n >> 2u) & 1u, dims.z) * dims.y + around_axis(q.y, (n >> 1u) & 1u, dims.y)) * dims.x
+                + around_axis(q.x, n & 1u, dims.x);
+        }
+        for (var w = 0u; w < words; w++) {
+            visible[w] |= masks[c * words + w];
+            occluded[w] |= masks[shade.cells.w * words + c * words + w];
+        }
+    }
     let unknown = shade.flags.y == 1u;
     let rays_unshadowed = shade.flags.x == 1u;
     let inv = div_exact(1.0, f32(shade.size.y));
@@ -156,8 +184,8 @@ fn shade_pixels(@builtin(global_invocation_id) gid: vec3<u32>, @builtin(num_work
             continue;
         }
         let pixel = octahedral_pixel(d, shade.size.w);
-        let v = mask_bit(visible_base, pixel);
-        let o = mask_bit(occluded_base, pixel);
+        let v = ((visible[pixel / 32u] >> (pixel % 32u)) & 1u) == 1u;
+        let o = ((occluded[pixel / 32u] >> (pixel % 32u)) & 1u) == 1u;
         // Label 1 (mostly occluded): trace inside the visible region, add what escapes. Label 0:
         // trace inside the occluded region, add what is blocked. One trace and one lookup per
         // ray in the code, so the traversal is compiled once.
