@@ -72,9 +72,9 @@ pub enum Footprint {
 pub struct DvfParams {
     /// N_r: rays per point sample and per fragment (`rays`).
     pub rays: u32,
-    /// Rays per point sample in the build (`build_rays`; 0 means N_r, as in the paper).
-    /// `auto` (the default, ours): R²/2, one per octahedral pixel of the sample's hemisphere,
-    /// at most N_r ([`DvfParams::for_frame`]).
+    /// Rays per point sample in the build (`build_rays`; 0, the default, means N_r as in the
+    /// paper). Deviation when set: with R = 8 a sample's hemisphere covers ~32 pixels, so far fewer
+    /// than 128 rays already reach most of them.
     pub build_rays: u32,
     /// N_P: requested point samples (`points`).
     pub points: u32,
@@ -120,12 +120,10 @@ pub struct AutoBudget {
     pub unshadowed: bool,
     /// `bright=auto`: on for maps that are not low-frequency ([`choose_bright`]).
     pub bright: bool,
-    /// `build_rays=auto`: R²/2 rays per sample, at most N_r.
-    pub build_rays: bool,
 }
 
 impl AutoBudget {
-    pub const ALL: AutoBudget = AutoBudget { points: true, grid: true, rounding: true, unshadowed: true, bright: true, build_rays: true };
+    pub const ALL: AutoBudget = AutoBudget { points: true, grid: true, rounding: true, unshadowed: true, bright: true };
 }
 
 /// Which hemispheres a point sample traces (`sides`).
@@ -348,10 +346,6 @@ impl DvfParams {
     ///   (N_P × N_r × sides) stay a fraction of the reference's (pixels × N_r);
     /// - grid = √(N_P / [`SAMPLES_PER_CELL`]) cells along the longest axis, within 8..=77, so a
     ///   surface cell holds about 25 samples;
-    /// - build rays: R²/2 per sample (32 at R = 8), at most N_r: the build only marks which
-    ///   octahedral pixels a sample sees open or blocked, about one ray per pixel of its
-    ///   hemisphere, and a cell gathers many samples (with `footprint=around`, eight cells'); the
-    ///   fragment's estimate keeps its N_r rays. The paper traces N_r per sample too;
     /// - rounding: ceiling (the paper) unless there are more than 4 N_P triangles, where the
     ///   ceiling's one sample per triangle would multiply the budget (1M triangles: 1M samples);
     ///   then the rounded running total (`cumulative`), which keeps N_P and, unlike Xu et al.'s
@@ -365,9 +359,6 @@ impl DvfParams {
         }
         if self.auto.grid {
             p.grid = ((p.points as f32 / SAMPLES_PER_CELL).sqrt().round() as u32).clamp(8, 77);
-        }
-        if self.auto.build_rays {
-            p.build_rays = (p.octahedral * p.octahedral / 2).clamp(1, p.rays);
         }
         if self.auto.rounding {
             p.rounding = if triangles as u64 > 4 * p.points as u64 { Rounding::Cumulative } else { Rounding::Ceil };
@@ -386,7 +377,6 @@ impl DvfParams {
             rounding: auto_or("rounding", self.auto.rounding)?,
             unshadowed: auto_or("unshadowed", self.auto.unshadowed)?,
             bright: auto_or("bright", self.auto.bright)?,
-            build_rays: auto_or("build_rays", self.auto.build_rays)?,
         };
         let rounding_default = match self.rounding {
             Rounding::Ceil => "ceil",
@@ -396,7 +386,7 @@ impl DvfParams {
         Ok(Self {
             auto,
             rays: p.u32("rays", self.rays, 1, 1 << 16)?,
-            build_rays: if auto.build_rays { self.build_rays } else { p.u32("build_rays", self.build_rays, 0, 1 << 16)? },
+            build_rays: p.u32("build_rays", self.build_rays, 0, 1 << 16)?,
             points: if auto.points { self.points } else { p.u32("points", self.points, 0, 1 << 30)? },
             rounding: if auto.rounding {
                 self.rounding

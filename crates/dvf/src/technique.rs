@@ -65,7 +65,7 @@ impl EnvDvf {
             id: "env-dvf",
             family: "environment lighting",
             reference: Some("env-exact"),
-            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays=auto|N bright=auto|on|off bright_sr=0.2 footprint=around|cell; profile=paper (sides=front, bright=off, footprint=cell, build_rays=N_r)",
+            description: "discrete visibility field rebuilt per frame (Günay and Akyüz 2025 / Xu et al. 2022): rays=128 points=10000000 grid=77 octahedral=8 sampling=hash|hammersley rounding=ceil|round rotation=cp|normal; ours: rounding=cumulative unknown=skip|trace unshadowed=auto|sh|rays sides=both|front|seen build_rays bright=auto|on|off bright_sr=0.2 footprint=around|cell; profile=paper (sides=front, bright=off, footprint=cell)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::technique::require(scene, "env-dvf", glimpse_render::technique::Need::Environment)?;
                 Ok(Box::new(EnvDvf::new(settings, params)?))

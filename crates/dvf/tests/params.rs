@@ -47,14 +47,9 @@ fn the_automatic_budget_follows_the_frame() {
     assert_eq!(auto.for_frame(320 * 180, 1_041_765).rounding, Rounding::Cumulative);
     assert_eq!(read(&["rounding=round"]).for_frame(320 * 180, 1_041_765).rounding, Rounding::Round);
     assert_eq!(read(&["rounding=cumulative"]).for_frame(64, 2).rounding, Rounding::Cumulative);
-    // Build rays: one per octahedral pixel of a hemisphere (R²/2), at most N_r.
-    assert_eq!(hd.build_rays, 32);
-    assert_eq!(read(&["rays=16"]).for_frame(1280 * 720, 66_000).build_rays, 16);
-    assert_eq!(read(&["octahedral=16"]).for_frame(1280 * 720, 66_000).build_rays, 128);
-    // Explicit keys are kept, and the paper's profile traces N_r per sample (0).
-    let fixed = read(&["points=5000", "grid=12", "rounding=ceil", "build_rays=0"]).for_frame(1280 * 720, 2_000_000);
-    assert_eq!((fixed.points, fixed.grid, fixed.rounding, fixed.build_rays), (5000, 12, Rounding::Ceil, 0));
-    assert_eq!(read(&["profile=paper"]).for_frame(1280 * 720, 66_000).build_rays, 0);
+    // Explicit keys are kept.
+    let fixed = read(&["points=5000", "grid=12", "rounding=ceil"]).for_frame(1280 * 720, 2_000_000);
+    assert_eq!((fixed.points, fixed.grid, fixed.rounding), (5000, 12, Rounding::Ceil));
 }
 
 /// `unshadowed=auto` keeps the paper's SH E_unshad for low-frequency light and takes it from the
