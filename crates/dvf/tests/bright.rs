@@ -2,6 +2,8 @@
 //! The bright set against the map it comes from, `auto`'s choice, and the image of a room lit
 //! by a small sun through a slit in its roof against `env-exact` on the same rays.
 
+mod common;
+
 use glimpse_core::{Image, Mat4, Vec2, Vec3, luminance};
 use glimpse_dvf::bright::{BrightDirections, RESOLUTION};
 use glimpse_dvf::grid::octahedral_pixel;
@@ -88,11 +90,9 @@ fn slit_room() -> Scene {
     s
 }
 
+/// The image and the render's stats.
 fn render(t: &mut dyn Technique, ctx: &FrameContext) -> (Image, Stats) {
-    let g = ctx.gbuffer();
-    t.prepare(ctx).unwrap();
-    let mut img = ctx.image();
-    let stats = t.render(ctx, &g, &mut img).unwrap();
+    let (img, _, stats) = common::render(t, ctx);
     (img, stats)
 }
 

@@ -3,6 +3,8 @@
 //! `env-exact` on the same rays, on the Cornell box, where a cell's samples on one wall decide
 //! for fragments on the wall or box beside them.
 
+mod common;
+
 use glimpse_core::{Aabb, Vec3};
 use glimpse_dvf::grid::Grid;
 use glimpse_dvf::technique::EnvDvf;
@@ -10,11 +12,9 @@ use glimpse_render::env::EnvExact;
 use glimpse_render::metrics::rmse;
 use glimpse_render::{FrameContext, Params, Settings, Stats, Technique};
 
+/// The image and the render's stats.
 fn render(t: &mut dyn Technique, ctx: &FrameContext) -> (glimpse_core::Image, Stats) {
-    let g = ctx.gbuffer();
-    t.prepare(ctx).unwrap();
-    let mut img = ctx.image();
-    let stats = t.render(ctx, &g, &mut img).unwrap();
+    let (img, _, stats) = common::render(t, ctx);
     (img, stats)
 }
 

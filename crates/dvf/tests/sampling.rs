@@ -7,6 +7,8 @@
 //! skips its downward rays, which hit the plane (lit undersides). The default stays `both`
 //! (`DvfParams::back_instances` says why).
 
+mod common;
+
 use glimpse_core::Vec3;
 use glimpse_dvf::technique::EnvDvf;
 use glimpse_render::env::EnvExact;
@@ -18,12 +20,10 @@ fn courtyard() -> Scene {
     glimpse_scene::load(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/courtyard.toml")).expect("test scene loads")
 }
 
+/// The image and the prepare's stats.
 fn render(t: &mut dyn Technique, ctx: &FrameContext) -> (glimpse_core::Image, glimpse_render::Stats) {
-    let g = ctx.gbuffer();
-    let prep = t.prepare(ctx).expect("prepare");
-    let mut img = ctx.image();
-    t.render(ctx, &g, &mut img).expect("render");
-    (img, prep)
+    let (img, prepared, _) = common::render(t, ctx);
+    (img, prepared)
 }
 
 fn metric(stats: &glimpse_render::Stats, name: &str) -> f64 {

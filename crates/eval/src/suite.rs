@@ -564,6 +564,9 @@ fn cross_checks(cells: &mut [Cell]) {
 
 pub fn run_suite(cfg: &SuiteConfig, registry: &Registry, mut log: impl FnMut(&str)) -> Result<SuiteResults> {
     let started = Instant::now();
+    // Every cell's prepare is a build: a structure left on disk by an earlier run (the wavelet
+    // cache, the voxel array) would make it a load. The references' cache stays.
+    glimpse_render::set_structure_cache(false);
     let mut scenes = discover(&cfg.scenes_dir)?;
     if !cfg.only.is_empty() {
         if let Some(unknown) = cfg.only.iter().find(|n| !scenes.iter().any(|s| &s.name == *n)) {

@@ -47,6 +47,21 @@ pub fn cache_dir() -> Option<std::path::PathBuf> {
     std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".cache/glimpse"))
 }
 
+static STRUCTURE_CACHE: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(true);
+
+/// Turns the techniques' on-disk caches of their built structures (the wavelet cache, the voxel
+/// array) on or off for this process. `glimpse suite` turns them off, so a cell's prepare time is
+/// always a build, never a load left by an earlier run.
+pub fn set_structure_cache(on: bool) {
+    STRUCTURE_CACHE.store(on, std::sync::atomic::Ordering::Relaxed);
+}
+
+/// Where a technique may store and load its built structure: [`cache_dir`], unless
+/// [`set_structure_cache`] turned such caches off.
+pub fn structure_cache_dir() -> Option<std::path::PathBuf> {
+    if STRUCTURE_CACHE.load(std::sync::atomic::Ordering::Relaxed) { cache_dir() } else { None }
+}
+
 /// The techniques this crate provides, for the registry.
 pub fn techniques() -> Vec<TechniqueInfo> {
     vec![

@@ -283,7 +283,7 @@ impl Technique for LightsVoxArray {
         } else if self.structure.is_none() {
             let triangles = ctx.frame.world_triangles();
             // A static scene's compressed array is cached on disk (see `disk_cache`).
-            let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::cache_dir() } else { None };
+            let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::structure_cache_dir() } else { None };
             let path = cache.map(|dir| disk_cache::path_for(&dir, &triangles, &self.params));
             let loaded = path.as_ref().and_then(|path| stats.time("load cached array", || disk_cache::load(path, &self.params)));
             let a = match loaded {

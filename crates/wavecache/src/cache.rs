@@ -449,7 +449,7 @@ impl WaveCache {
 
     /// Where the cache of `key` lives.
     pub fn path_for(key: u64) -> Option<PathBuf> {
-        glimpse_render::cache_dir().map(|d| d.join("wavecache").join(format!("{key:016x}.bin")))
+        glimpse_render::structure_cache_dir().map(|d| d.join("wavecache").join(format!("{key:016x}.bin")))
     }
 }
 
