@@ -43,9 +43,7 @@ impl Grid {
         let c = |a: usize| (q[a].max(0.0) as u32).min(self.dims[a] - 1) as usize;
         (c(2) * self.dims[1] as usize + c(1)) * self.dims[0] as usize + c(0)
     }
-}
 
-impl Grid {
     /// The 2×2×2 cells whose centres surround `p` (clamped into the grid; repeated at its faces).
     pub fn cells_around(&self, p: Vec3) -> [usize; 8] {
         let q = (p - self.origin) / self.cell_size_world - Vec3::splat(0.5);

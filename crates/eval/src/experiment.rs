@@ -114,14 +114,30 @@ pub struct Rendered {
 
 /// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
 /// (references at high spp, a voxel array build, a wavelet precompute).
+/// The reference cache's key for technique `id` rendered with `params` at `spp` and `seed` over
+/// `frames` frames on the run's scene, size, time, film and overrides.
+fn reference_key(cfg: &EvalConfig, ctx: &FrameContext, id: &str, params: &Params, spp: u32, seed: u64, frames: u32) -> String {
+    Cache::key(
+        &[
+            id,
+            &format!("{:?}", params.effective()),
+            &format!("{}x{}", cfg.width, cfg.height),
+            &spp.to_string(),
+            &seed.to_string(),
+            &cfg.time.to_string(),
+            &format!("film {} x{frames}", ctx.film.filter.name()),
+            &cfg.overrides.cache_key(),
+        ],
+        &cfg.scene_spec,
+    )
+}
+
 /// `env-exact` converged (`converged=true`: 4,096 rays, MIS with the map's importance sampling)
 /// on the run's GBuffer, from the reference cache when there.
 fn converged_env_exact(cfg: &EvalConfig, ctx: &FrameContext, gbuffer: &GBuffer, log: &mut impl FnMut(&str)) -> Result<Image> {
     let params = Params::parse(&["converged=true"])?;
     let settings = Settings { spp: 1, seed: cfg.seed.wrapping_add(0x5eed) };
-    let size = format!("{}x{}", cfg.width, cfg.height);
-    let (seed, time) = (settings.seed.to_string(), cfg.time.to_string());
-    let key = Cache::key(&["env-exact", "converged=true", &size, &seed, &time, &cfg.overrides.cache_key()], &cfg.scene_spec);
+    let key = reference_key(cfg, ctx, "env-exact", &params, 1, settings.seed, 1);
     if let Some(image) = cfg.cache.load(&key).filter(|i| i.width == cfg.width && i.height == cfg.height) {
         return Ok(image);
     }
@@ -307,20 +323,7 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
             let ref_settings = Settings { spp: cfg.ref_spp.div_ceil(frames), seed: ref_seed };
             let ref_params = Params::parse(&cfg.params)?;
             let mut reference = (registry.get(&ref_id)?.create)(&scene, &ref_settings, &ref_params)?;
-            let effective = format!("{:?}", ref_params.effective());
-            let key = Cache::key(
-                &[
-                    &ref_id,
-                    &effective,
-                    &format!("{}x{}", cfg.width, cfg.height),
-                    &cfg.ref_spp.to_string(),
-                    &ref_settings.seed.to_string(),
-                    &cfg.time.to_string(),
-                    &format!("film {} x{frames}", ctx.film.filter.name()),
-                    &cfg.overrides.cache_key(),
-                ],
-                &cfg.scene_spec,
-            );
+            let key = reference_key(cfg, &ctx, &ref_id, &ref_params, cfg.ref_spp, ref_settings.seed, frames);
             let (image, cached) = match cfg.cache.load(&key) {
                 Some(img) if img.width == cfg.width && img.height == cfg.height => (img, true),
                 _ => {
