@@ -110,6 +110,9 @@ pub struct Rendered {
     pub image: Image,
     pub prepare: Stats,
     pub render: Stats,
+    /// Over several frames ([`render_frames`]): frame 0's prepare + render, which holds the
+    /// one-time work (a precomputation, a structure build) that the per-frame median leaves out.
+    pub first_frame_ms: Option<f64>,
 }
 
 /// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
@@ -153,7 +156,7 @@ pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &
     let prepare = with_spinner(&format!("preparing {id}"), || technique.prepare(ctx))?;
     let mut image = ctx.image();
     let render = with_progress(&format!("rendering {id}"), ctx, || technique.render(ctx, gbuffer, &mut image))?;
-    Ok(Rendered { image, prepare, render })
+    Ok(Rendered { image, prepare, render, first_frame_ms: None })
 }
 
 /// A shading pass shorter than this is timed again ([`STEADY_REPEATS`] passes in all) and the
@@ -200,6 +203,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
     let mut sum: Option<Image> = None;
     let mut last = None;
     let mut timed: Vec<(Stats, Stats)> = Vec::new();
+    let mut first_frame_ms = None;
     for i in 0..frames {
         ctx.frame_index = i;
         ctx.film_pass = i;
@@ -215,6 +219,8 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
         }
         if i > 0 || frames == 1 {
             timed.push((r.prepare.clone(), r.render.clone()));
+        } else {
+            first_frame_ms = Some(r.prepare.total_ms() + r.render.total_ms());
         }
         last = Some(r);
     }
@@ -223,6 +229,7 @@ pub fn render_frames(technique: &mut dyn Technique, ctx: &mut FrameContext, gbuf
         r.image.pixels = total.pixels.into_iter().map(|p| p / frames as f32).collect();
     }
     (r.prepare, r.render) = median_by_ms(timed, |(prepare, render)| prepare.total_ms() + render.total_ms());
+    r.first_frame_ms = first_frame_ms;
     Ok(r)
 }
 
@@ -394,6 +401,9 @@ pub fn run_eval(cfg: &EvalConfig, registry: &Registry, mut log: impl FnMut(&str)
         ms.insert("prepare".to_owned(), r.prepare.total_ms());
         ms.insert("render".to_owned(), r.render.total_ms());
         ms.insert("total".to_owned(), r.prepare.total_ms() + r.render.total_ms());
+        if let Some(first) = r.first_frame_ms {
+            ms.insert("first_frame".to_owned(), first);
+        }
         for (stage, t) in r.prepare.stages.iter().chain(&r.render.stages) {
             *ms.entry(stage.clone()).or_insert(0.0) += t;
         }

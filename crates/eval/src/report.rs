@@ -59,6 +59,8 @@ figcaption{{font-size:12px;text-align:center}}</style></head><body>
             .iter()
             .filter(|(k, _)| !standard.contains(&k.as_str()))
             .map(|(k, v)| format!("{k} {v:.4}"))
+            // Over several frames the times are the median frame's; the first holds the one-time work.
+            .chain(run.ms.get("first_frame").map(|f| format!("first of {} frames {f:.1} ms", run.frames)))
             .collect::<Vec<_>>()
             .join(", ")
     };

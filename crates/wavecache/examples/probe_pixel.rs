@@ -7,7 +7,7 @@
 use glimpse_core::{Rng, Vec3};
 use glimpse_render::bsdf::reflect;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
-use glimpse_wavecache::bake::Integrator;
+use glimpse_wavecache::bake::{Integrator, MapSettings};
 use glimpse_wavecache::halfcube::map_frame;
 use glimpse_wavecache::points::SurfaceSample;
 use glimpse_wavecache::technique::{Runtime, ShadePoint};
@@ -45,7 +45,14 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let res = mc.map_res.max(4);
     let mut own = Vec::new();
     for (texel, light, seed) in [(16, 0, 1), (16, 0, 2), (16, 4, 1), (16, 4, 2), (256, 0, 1), (256, 16, 1)] {
-        let (img, _) = integ.radiance_map(&sample, &map_frame(ns), res, texel, light, &mut Rng::new(seed, 1));
+        let img = integ
+            .radiance_map(
+                &sample,
+                &map_frame(ns),
+                &MapSettings { res, samples: texel, light_samples: light, split_env: false },
+                &mut Rng::new(seed, 1),
+            )
+            .image;
         let tree = haar::build(&img, res, wp.radiance_beta as f64, &mut cache.radiance_nodes);
         cache.radiance_trees.push(tree);
         own.push((

@@ -95,7 +95,7 @@ impl<'a> Integrator<'a> {
         let env = self.frame.scene.environment.as_ref();
         let Some(hit) = self.tracer.closest_hit(ray, f32::INFINITY) else {
             let (emitted, env_pdf) = env.map_or((Vec3::ZERO, 0.0), |e| (e.radiance(ray.dir), e.pdf(ray.dir)));
-            return Arrival { emitted, env_pdf, rays: 1, ..Default::default() };
+            return Arrival { emitted, env_pdf, escaped: true, rays: 1, ..Default::default() };
         };
         let sp = SurfacePoint::from_hit(self.frame, ray, &hit);
         let emitted = sp.emission(self.frame);
@@ -148,15 +148,8 @@ impl<'a> Integrator<'a> {
     /// so a texel's estimate is Σ L_e / (n_texel p_texel + n_area p_area + n_env p_env) + the
     /// reflected light's plain estimate: unbiased, and a small bright source inside one texel
     /// gets most of its samples from the light samplers.
-    pub fn radiance_map(
-        &self,
-        point: &SurfaceSample,
-        frame: &Frame,
-        res: u32,
-        samples: u32,
-        light_samples: u32,
-        rng: &mut Rng,
-    ) -> (Vec<[f64; 3]>, u64) {
+    pub fn radiance_map(&self, point: &SurfaceSample, frame: &Frame, map: &MapSettings, rng: &mut Rng) -> RadianceMap {
+        let MapSettings { res, samples, light_samples, split_env } = *map;
         let h = HalfCube::new(res);
         let s_count = samples.max(1);
         // A k×k grid of strata takes the first k² samples, the rest fall anywhere in the texel:
@@ -189,6 +182,11 @@ impl<'a> Integrator<'a> {
                 t[c] += l[c] as f64 * w;
             }
         };
+        // `split_env`: the environment's direct light stays out of the map; per texel the
+        // environment's light that arrives and the light that would arrive unoccluded, from
+        // the same samples and weights (their ratio is the texel's visibility, weighted by the
+        // map's radiance), and the texel rays that escaped of those cast (where the map is black).
+        let mut vis = split_env.then(|| vec![[0.0f64; 4]; h.texels()]);
         for y in 0..res {
             for x in 0..res {
                 if d_omega[(y * res + x) as usize] <= 0.0 {
@@ -210,6 +208,18 @@ impl<'a> Integrator<'a> {
                         continue;
                     }
                     add(x, y, a.reflected, HalfCube::jacobian(uv) as f64 * texel_area / s_count as f64);
+                    if let (Some(vis), Some(env)) = (vis.as_mut(), env) {
+                        let open = env.radiance(dir);
+                        let w = 1.0 / denominator(local, 0.0, env.pdf(dir));
+                        let v = &mut vis[(y * res + x) as usize];
+                        v[1] += luminance(open) as f64 * w;
+                        v[2] += a.escaped as u32 as f64;
+                        v[3] += 1.0;
+                        if a.escaped {
+                            v[0] += luminance(a.emitted) as f64 * w;
+                            continue;
+                        }
+                    }
                     if a.emitted.max_element() > 0.0 {
                         add(x, y, a.emitted, 1.0 / denominator(local, a.area_pdf, a.env_pdf));
                     }
@@ -223,11 +233,18 @@ impl<'a> Integrator<'a> {
                 return;
             }
             *rays += 1;
-            if self.tracer.occluded(shadow, t_max) {
+            let (x, y) = h.texel_of(local);
+            let w = 1.0 / denominator(local, area_pdf, env_pdf);
+            let open = !self.tracer.occluded(shadow, t_max);
+            if let Some(vis) = vis.as_mut().filter(|_| env_pdf > 0.0) {
+                let v = &mut vis[(y * res + x) as usize];
+                v[1] += luminance(le) as f64 * w;
+                v[0] += if open { luminance(le) as f64 * w } else { 0.0 };
                 return;
             }
-            let (x, y) = h.texel_of(local);
-            add(x, y, le, 1.0 / denominator(local, area_pdf, env_pdf));
+            if open {
+                add(x, y, le, w);
+            }
         };
         for _ in 0..n_area {
             let (u_pick, u) = (rng.next_f32(), rng.next_2d());
@@ -249,9 +266,46 @@ impl<'a> Integrator<'a> {
                 splat(d, le, 0.0, pdf, &shadow, f32::INFINITY, &mut rays);
             }
         }
-        let img = integral.iter().zip(&d_omega).map(|(sum, &a)| if a > 0.0 { sum.map(|v| v / a) } else { [0.0; 3] }).collect();
-        (img, rays)
+        let image = integral.iter().zip(&d_omega).map(|(sum, &a)| if a > 0.0 { sum.map(|v| v / a) } else { [0.0; 3] }).collect();
+        let visibility = vis.map(|vis| {
+            vis.iter()
+                .map(|&[seen, open, escaped, cast]| {
+                    let v = if open > 0.0 {
+                        seen / open
+                    } else if cast > 0.0 {
+                        escaped / cast
+                    } else {
+                        0.0
+                    };
+                    (v.clamp(0.0, 1.0) * 255.0).round() as u8
+                })
+                .collect()
+        });
+        RadianceMap { image, visibility, rays }
     }
+}
+
+/// How a radiance map is baked ([`Integrator::radiance_map`]).
+#[derive(Clone, Copy, Debug)]
+pub struct MapSettings {
+    /// N of the N × N half-cube map.
+    pub res: u32,
+    /// Rays per texel (`texel_samples`).
+    pub samples: u32,
+    /// Light samples per texel, on average (`texel_light_samples`).
+    pub light_samples: u32,
+    /// Leave the environment's direct light out and record its visibility (`env_direct`).
+    pub split_env: bool,
+}
+
+/// One baked radiance map ([`Integrator::radiance_map`]).
+pub struct RadianceMap {
+    /// Mean radiance per texel, N × N (0 in the unused corners).
+    pub image: Vec<[f64; 3]>,
+    /// With `split_env`: per texel, the share of the environment's light arriving unoccluded
+    /// (weighted by its radiance), 0–255.
+    pub visibility: Option<Vec<u8>>,
+    pub rays: u64,
 }
 
 /// What arrives at a cache point along one ray ([`Integrator::arrival`]).
@@ -263,6 +317,8 @@ pub struct Arrival {
     pub area_pdf: f32,
     /// The environment sampler's density of the ray's direction (0 unless it escaped).
     pub env_pdf: f32,
+    /// The ray met no surface (`emitted` is the environment's).
+    pub escaped: bool,
     /// The light the first hit reflects along the ray.
     pub reflected: Vec3,
     pub rays: u64,
@@ -312,20 +368,23 @@ pub struct BakedMesh {
     pub energy: Vec<f32>,
     pub irradiance: Vec<Vec3>,
     pub maps: Vec<(Vec<HaarNode>, TreeRef)>,
+    /// Per glossy point with `split_env`: its environment visibility map ([`RadianceMap::visibility`]).
+    pub visibility: Vec<Vec<u8>>,
     /// Points buried inside a closed mesh (`enclosed_share`), not baked: dropped by the caller.
     pub enclosed: Vec<bool>,
     pub rays: u64,
 }
 
-/// One baked point: energy, irradiance, radiance tree (glossy), rays traced, enclosed.
-type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, u64, bool);
+/// One baked point: energy, irradiance, radiance tree (glossy) and its environment visibility
+/// (`split_env`), rays traced, enclosed.
+type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, Option<Vec<u8>>, u64, bool);
 
 /// Bakes the points of one instance (`class` Diffuse or Glossy).
 pub fn bake_points(
     integ: &Integrator,
     samples: Vec<SurfaceSample>,
     class: Class,
-    map_res: u32,
+    map: MapSettings,
     p: &WavecacheParams,
     seed: u64,
     tick: &(dyn Fn(u64) + Sync),
@@ -341,21 +400,23 @@ pub fn bake_points(
                 if p.enclosed_share < 1.0 { integ.enclosed_share(s, &|inst| p.two_sided(inst as usize), &mut probe_rng) } else { (0.0, 0) };
             if share > p.enclosed_share {
                 tick(1);
-                let map = (class == Class::Glossy).then(|| {
+                let texels = (map.res * map.res) as usize;
+                let tree = (class == Class::Glossy).then(|| {
                     let mut nodes = Vec::new();
-                    let t = haar::build(&vec![[0.0; 3]; (map_res * map_res) as usize], map_res, 0.0, &mut nodes);
+                    let t = haar::build(&vec![[0.0; 3]; texels], map.res, 0.0, &mut nodes);
                     (nodes, t)
                 });
-                return (0.0, Vec3::ZERO, map, probe_rays, true);
+                let vis = (class == Class::Glossy && map.split_env).then(|| vec![0; texels]);
+                return (0.0, Vec3::ZERO, tree, vis, probe_rays, true);
             }
             let out = match class {
                 Class::Glossy => {
                     let frame = crate::halfcube::map_frame(s.shading_normal);
-                    let (img, rays) = integ.radiance_map(s, &frame, map_res, p.texel_samples, p.texel_light_samples, &mut rng);
+                    let baked = integ.radiance_map(s, &frame, &map, &mut rng);
                     let mut nodes = Vec::new();
-                    let t = haar::build(&img, map_res, p.radiance_beta as f64, &mut nodes);
+                    let t = haar::build(&baked.image, map.res, p.radiance_beta as f64, &mut nodes);
                     let e = luminance(nodes[0].c());
-                    (e, Vec3::ZERO, Some((nodes, t)), rays + probe_rays, false)
+                    (e, Vec3::ZERO, Some((nodes, t)), baked.visibility, baked.rays + probe_rays, false)
                 }
                 _ => {
                     let (mut sum, mut rays) = (Vec3::ZERO, 0);
@@ -367,20 +428,31 @@ pub fn bake_points(
                         }
                     }
                     let e = sum / p.irradiance_samples.max(1) as f32;
-                    (luminance(e), e, None, rays + probe_rays, false)
+                    (luminance(e), e, None, None, rays + probe_rays, false)
                 }
             };
             tick(1);
             out
         })
         .collect();
-    let mut b = BakedMesh { samples, energy: Vec::new(), irradiance: Vec::new(), maps: Vec::new(), enclosed: Vec::new(), rays: 0 };
-    for (e, irr, map, rays, enclosed) in results {
+    let mut b = BakedMesh {
+        samples,
+        energy: Vec::new(),
+        irradiance: Vec::new(),
+        maps: Vec::new(),
+        visibility: Vec::new(),
+        enclosed: Vec::new(),
+        rays: 0,
+    };
+    for (e, irr, map, vis, rays, enclosed) in results {
         b.energy.push(e);
         b.enclosed.push(enclosed);
         b.irradiance.push(irr);
         if let Some(m) = map {
             b.maps.push(m);
+        }
+        if let Some(v) = vis {
+            b.visibility.push(v);
         }
         b.rays += rays;
     }

@@ -22,6 +22,9 @@ use glimpse_scene::SceneFrame;
 use glimpse_trace::ExactTracer;
 use std::path::{Path, PathBuf};
 
+/// [`WaveCache::env_visibility_first`] of a map without a visibility map.
+pub const NO_VISIBILITY: u32 = u32::MAX;
+
 /// Bins of cos θ_o in the diffuse albedo tables.
 pub const ALBEDO_BINS: u32 = 32;
 
@@ -58,6 +61,12 @@ pub struct WaveCache {
     pub irradiance: Vec<[u16; 3]>,
     pub radiance_trees: Vec<TreeRef>,
     pub radiance_nodes: Vec<HaarNode>,
+    /// Per radiance tree: where its environment visibility map starts in `env_visibility`
+    /// (N² bytes, N = 2^levels), or [`NO_VISIBILITY`] where its map holds the environment's
+    /// direct light as the paper's do (`env_direct`, [`crate::WavecacheParams::env_direct`]).
+    pub env_visibility_first: Vec<u32>,
+    /// The visibility maps: per texel, the share of the environment's light arriving, 0–255.
+    pub env_visibility: Vec<u8>,
     /// [brdf ms, lighting ms, rays traced] of the run that computed it.
     pub build_info: Vec<f64>,
 }
@@ -87,6 +96,8 @@ impl WaveCache {
             + bytes(&self.irradiance)
             + bytes(&self.radiance_trees)
             + bytes(&self.radiance_nodes)
+            + bytes(&self.env_visibility_first)
+            + bytes(&self.env_visibility)
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -184,7 +195,9 @@ impl WaveCache {
                 samples.extend(backs);
             }
             let map_res = plan.map_res[i];
-            let baked = bake::bake_points(&integ, samples, class, map_res, p, seed.wrapping_add(i as u64 * 7919), tick);
+            let split_env = class == Class::Glossy && p.split_env(scene.environment.as_ref(), map_res);
+            let map = bake::MapSettings { res: map_res, samples: p.texel_samples, light_samples: p.texel_light_samples, split_env };
+            let baked = bake::bake_points(&integ, samples, class, map, p, seed.wrapping_add(i as u64 * 7919), tick);
             rays += baked.rays;
             let positions: Vec<Vec3> = baked.samples.iter().map(|s| s.position).collect();
             // Sec. 6 sparsifies "objects with low-frequency reflections": the irradiance points only (a
@@ -209,6 +222,13 @@ impl WaveCache {
                     t.first = c.radiance_nodes.len() as u32;
                     c.radiance_nodes.extend_from_slice(&nodes);
                     payload_trees.push(t);
+                    match baked.visibility.get(k) {
+                        Some(v) => {
+                            c.env_visibility_first.push(c.env_visibility.len() as u32);
+                            c.env_visibility.extend_from_slice(v);
+                        }
+                        None => c.env_visibility_first.push(NO_VISIBILITY),
+                    }
                     (c.radiance_trees.len() + payload_trees.len() - 1) as u32
                 } else {
                     let e = baked.irradiance[k];
@@ -290,7 +310,7 @@ impl WaveCache {
     // payload is the key and the arrays, each as a u64 byte length and its plain bytes.
 
     /// Bump when the payload's layout or any array element's layout changes.
-    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 3 };
+    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 4 };
 
     /// The payload of [`WaveCache::FORMAT`].
     pub fn to_payload(&self) -> Vec<u8> {
@@ -311,6 +331,8 @@ impl WaveCache {
         put(&mut out, &self.irradiance);
         put(&mut out, &self.radiance_trees);
         put(&mut out, &self.radiance_nodes);
+        put(&mut out, &self.env_visibility_first);
+        put(&mut out, &self.env_visibility);
         put(&mut out, &self.build_info);
         out
     }
@@ -348,6 +370,8 @@ impl WaveCache {
             irradiance: get(data, &mut at, "irradiance")?,
             radiance_trees: get(data, &mut at, "radiance trees")?,
             radiance_nodes: get(data, &mut at, "radiance nodes")?,
+            env_visibility_first: get(data, &mut at, "environment visibility offsets")?,
+            env_visibility: get(data, &mut at, "environment visibility")?,
             build_info: get(data, &mut at, "build info")?,
         };
         if at != data.len() {
@@ -399,6 +423,15 @@ impl WaveCache {
         }
         for (i, t) in self.radiance_trees.iter().enumerate() {
             validate_haar_tree(&self.radiance_nodes, t).map_err(|m| format!("radiance tree {i}: {m}"))?;
+        }
+        if self.env_visibility_first.len() != self.radiance_trees.len() {
+            return Err(format!("{} visibility offsets for {} radiance trees", self.env_visibility_first.len(), self.radiance_trees.len()));
+        }
+        for (i, (&first, t)) in self.env_visibility_first.iter().zip(&self.radiance_trees).enumerate() {
+            let texels = 1u64 << (2 * t.levels);
+            if first != NO_VISIBILITY && first as u64 + texels > self.env_visibility.len() as u64 {
+                return Err(format!("radiance tree {i}: visibility map at {first} out of range"));
+            }
         }
         if self.brdf_black.len() != materials {
             return Err(format!("{} black-base BRDF tables for {materials} materials", self.brdf_black.len()));

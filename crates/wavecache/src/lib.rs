@@ -17,6 +17,7 @@
 pub mod bake;
 pub mod brdf;
 pub mod cache;
+pub mod env_direct;
 pub mod haar;
 pub mod half;
 pub mod halfcube;
@@ -65,6 +66,22 @@ pub enum WoFrame {
     /// mirror direction, so sharp lobes look up the map where the true reflection is.
     Reflect,
 }
+
+/// Whether a glossy map leaves the environment's direct light out (`env_direct`, ours; see
+/// [`WavecacheParams::env_direct`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum EnvDirect {
+    /// Where the environment's brighter half (by power) spans under [`ENV_DIRECT_TEXELS`]
+    /// texels of the material's map: the map cannot resolve it.
+    Auto,
+    On,
+    /// The paper: every map holds all the light.
+    Off,
+}
+
+/// `env_direct=auto`'s bound, in texels of (π/N)² sr: the warehouse map's brighter half spans
+/// 3.4 texels of a 32² map, the studio map's 0.54, the built-in sky's 441.
+pub const ENV_DIRECT_TEXELS: f32 = 1.0;
 
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
@@ -215,6 +232,18 @@ pub struct WavecacheParams {
     /// on `studio-objects` at 16 spp doubles the MSE (docs/techniques/wavecache.md, "How sharp
     /// is sharp").
     pub sharp_env: bool,
+    /// `env_direct` (ours; `auto` by default, `off` in `profile=paper`): a glossy map stores the
+    /// light it would hold without the environment's direct light, plus the environment's
+    /// visibility per texel (weighted by the map's radiance), and the runtime integrates the
+    /// pixel's own BRDF against the environment map × that visibility by light and BSDF
+    /// sampling, with no rays. A map of N² texels cannot resolve a softbox of a fraction of a
+    /// texel, and Eq. 20's texel product then aliases it (2× `pt` on `textured-glossy`);
+    /// visibility varies slowly where the light does not (docs/techniques/wavecache.md,
+    /// "The environment's direct light").
+    pub env_direct: EnvDirect,
+    /// Environment samples per pixel sample for `env_direct` (half BSDF, half map; balance
+    /// heuristic); runtime only.
+    pub env_direct_samples: u32,
     /// Clear-coat ray chain depth (paper 3; spec §5: "The maximum tracing depth is set to 3").
     pub coat_depth: u32,
     /// Non-metals at or above this roughness use the irradiance cache (the paper's "diffuse"
@@ -268,6 +297,8 @@ impl Default for WavecacheParams {
             blend_glossy: 2,
             blend_radius: 2.0,
             sharp_env: false,
+            env_direct: EnvDirect::Auto,
+            env_direct_samples: 8,
             layers: 0,
             mirror_roughness: 0.1,
             mirror_depth: 4,
@@ -305,6 +336,7 @@ impl WavecacheParams {
             blend: 1,
             blend_glossy: 1,
             enclosed_share: 1.0,
+            env_direct: EnvDirect::Off,
             ..Self::default()
         }
     }
@@ -321,6 +353,7 @@ impl WavecacheParams {
             trace_sharp: d.trace_sharp,
             sharp_texels: d.sharp_texels,
             sharp_env: d.sharp_env,
+            env_direct_samples: d.env_direct_samples,
             query_m: d.query_m,
             normal_weight: d.normal_weight,
             normal_cutoff_deg: d.normal_cutoff_deg,
@@ -398,6 +431,15 @@ impl WavecacheParams {
             trace_sharp: params.bool("trace_sharp", base.trace_sharp)?,
             sharp_texels: params.f32("sharp_texels", base.sharp_texels, 0.0, 1024.0)?,
             sharp_env: params.bool("sharp_env", base.sharp_env)?,
+            env_direct: match params
+                .choice("env_direct", if base.env_direct == EnvDirect::Off { "off" } else { "auto" }, &["auto", "on", "off"])?
+                .as_str()
+            {
+                "on" => EnvDirect::On,
+                "off" => EnvDirect::Off,
+                _ => EnvDirect::Auto,
+            },
+            env_direct_samples: params.u32("env_direct_samples", base.env_direct_samples, 2, 1 << 16)?,
             coat_depth: params.u32("coat_depth", base.coat_depth, 1, 64)?,
             diffuse_roughness: params.f32("diffuse_roughness", base.diffuse_roughness, 0.0, 1.01)?,
             brdf: match params.choice("brdf", "pbr", &["pbr", "lambert"])?.as_str() {
@@ -418,6 +460,19 @@ impl WavecacheParams {
     /// Whether instance `i` gets cache points on both sides ([`WavecacheParams::back_sides`]).
     pub fn two_sided(&self, i: usize) -> bool {
         self.back_sides.binary_search(&(i as u32)).is_ok()
+    }
+
+    /// Whether glossy maps of N² texels leave the environment's direct light to the runtime
+    /// ([`WavecacheParams::env_direct`]).
+    pub fn split_env(&self, env: Option<&glimpse_scene::Environment>, map_res: u32) -> bool {
+        let Some(env) = env else {
+            return false;
+        };
+        match self.env_direct {
+            EnvDirect::Off => false,
+            EnvDirect::On => true,
+            EnvDirect::Auto => env.half_power_solid_angle() < ENV_DIRECT_TEXELS * (std::f32::consts::PI / map_res as f32).powi(2),
+        }
     }
 
     /// Radiance-map resolution for a roughness: Table 2 / `map_scale` (at least 4).

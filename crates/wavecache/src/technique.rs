@@ -28,9 +28,9 @@
 use crate::bake::CachePoint;
 use crate::brdf;
 use crate::brdf::BrdfTable;
-use crate::cache::{ALBEDO_BINS, WaveCache, cache_key};
+use crate::cache::{ALBEDO_BINS, NO_VISIBILITY, WaveCache, cache_key};
 use crate::haar;
-use crate::halfcube::map_frame;
+use crate::halfcube::{HalfCube, map_frame};
 use crate::points::{self, QueryParams};
 use crate::{Class, WavecacheParams, WoFrame};
 use glimpse_core::{Image, Ray, Rng, Vec3};
@@ -202,6 +202,12 @@ pub struct Runtime<'a> {
     pub emitters: direct::EmitterIndex,
     /// cos of the query's normal cutoff (`normal_cutoff_deg`).
     normal_cutoff: f32,
+    /// Environment samples (`env_direct`) at a pixel read from the cache: the render loop sets
+    /// `env_direct_samples` × spp, since it shades such a pixel once; a traced sample's hit
+    /// takes `env_direct_samples`.
+    pub pixel_env_samples: u32,
+    /// The environment's sampler for `env_direct` (where some map has a visibility map).
+    env_sampler: Option<crate::env_direct::EnvSampler>,
 }
 
 /// Whether a GGX lobe of `roughness` is narrower than a texel of a radiance half-cube map of
@@ -312,7 +318,10 @@ impl<'a> Runtime<'a> {
             .collect();
         let emitters = direct::EmitterIndex::new(frame);
         let normal_cutoff = params.normal_cutoff_deg.to_radians().cos();
-        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff }
+        let pixel_env_samples = params.env_direct_samples;
+        let env_sampler =
+            frame.scene.environment.as_ref().filter(|_| !cache.env_visibility.is_empty()).map(crate::env_direct::EnvSampler::new);
+        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff, pixel_env_samples, env_sampler }
     }
 
     /// The cache point chosen for the shaded point `s` (normal `ns` for the score), on the side
@@ -483,6 +492,51 @@ impl<'a> Runtime<'a> {
         }
     }
 
+    /// The environment's direct light at a glossy `s` whose cache points keep it out of their
+    /// maps (`env_direct`): ∫ f cos L_env V dω with the pixel's own BSDF (its texel, its normal),
+    /// the map's radiance, and V from the blended points' visibility maps, by `n` samples, half
+    /// of the BSDF and half of the map, combined by the balance heuristic. No rays: V is the
+    /// cached part. Zero where the points' maps hold that light (the paper's maps).
+    fn env_direct(&self, s: &ShadePoint, wo: Vec3, reading: &Reading, n: u32, rng: &mut Rng) -> Vec3 {
+        let (Some(env), Some(sampler), Some(first)) = (self.frame.scene.environment.as_ref(), self.env_sampler.as_ref(), reading.point)
+        else {
+            return Vec3::ZERO;
+        };
+        let c = self.cache;
+        let with_map = |p: &CachePoint| c.env_visibility_first.get(p.payload as usize).is_some_and(|&f| f != NO_VISIBILITY);
+        if self.classes.get(s.material as usize) != Some(&Class::Glossy) || !with_map(first) {
+            return Vec3::ZERO;
+        }
+        let m = &self.frame.scene.materials[s.material as usize];
+        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+            return Vec3::ZERO;
+        };
+        // Each blended point's frame, visibility map, resolution and weight.
+        let mut maps = [(glimpse_core::Frame::from_z(Vec3::Z), &[][..], 0u32, 0.0f32); MAX_BLEND];
+        let mut count = 0;
+        for (p, w) in reading.blended().filter(|(p, _)| with_map(p)) {
+            let first = c.env_visibility_first[p.payload as usize] as usize;
+            let res = 1u32 << c.radiance_trees[p.payload as usize].levels;
+            let texels = c.env_visibility.get(first..first + (res * res) as usize).unwrap_or(&[]);
+            maps[count] = (map_frame(Vec3::from(p.shading_normal)), texels, res, w);
+            count += 1;
+        }
+        let visibility = |d: Vec3| -> f32 {
+            maps[..count]
+                .iter()
+                .map(|(frame, texels, res, w)| {
+                    let local = frame.to_local(d);
+                    if local.z <= 0.0 || texels.is_empty() {
+                        return 0.0;
+                    }
+                    let (x, y) = HalfCube::new(*res).texel_of(local);
+                    texels[(y * res + x) as usize] as f32 / 255.0 * w
+                })
+                .sum()
+        };
+        crate::env_direct::estimate(&b, s.normal, env, sampler, visibility, n, rng)
+    }
+
     /// Eq. 15/16: punctual lights with shadow rays and the full BRDF. Returns (radiance, rays).
     pub fn punctual(&self, s: &ShadePoint, wo: Vec3) -> (Vec3, u64) {
         let m = &self.frame.scene.materials[s.material as usize];
@@ -548,7 +602,8 @@ impl<'a> Runtime<'a> {
                 rays += r;
                 l
             } else {
-                self.cached_from(s, wo, reading)
+                let n = if depth == 0 { self.pixel_env_samples } else { self.params.env_direct_samples };
+                self.cached_from(s, wo, reading) + self.env_direct(s, wo, reading, n, rng)
             }
         };
         let base = d + indirect;
@@ -696,7 +751,8 @@ impl Technique for Wavecache {
             });
         }
         let mut stats = Stats { memory_bytes: cache.memory_bytes(), ..Default::default() };
-        let rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
+        let mut rt = Runtime::new(cache, &self.params, &ctx.frame, &ctx.tracer);
+        rt.pixel_env_samples = self.params.env_direct_samples.saturating_mul(self.settings.spp.max(1));
         let far_pixels = AtomicU64::new(0);
         stats.rays = stats.time("shade", || {
             let spp = self.settings.spp.max(1);

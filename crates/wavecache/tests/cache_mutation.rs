@@ -18,7 +18,7 @@ use glimpse_wavecache::bake::CachePoint;
 use glimpse_wavecache::haar::{HaarNode, TreeRef};
 use glimpse_wavecache::points::OctNode;
 use glimpse_wavecache::technique::{Runtime, ShadePoint};
-use glimpse_wavecache::{WaveCache, Wavecache, WavecacheParams};
+use glimpse_wavecache::{EnvDirect, WaveCache, Wavecache, WavecacheParams};
 use std::path::Path;
 
 fn params() -> WavecacheParams {
@@ -33,6 +33,8 @@ fn params() -> WavecacheParams {
         glossy_points: 40,
         disk_cache: false,
         progress: false,
+        // The glossy maps also get environment visibility maps, so their arrays are mutated too.
+        env_direct: EnvDirect::On,
         ..WavecacheParams::default()
     }
 }
@@ -68,6 +70,7 @@ const POINTS: usize = 7;
 const IRRADIANCE: usize = 8;
 const RADIANCE_TREES: usize = 9;
 const RADIANCE_NODES: usize = 10;
+const VISIBILITY_FIRST: usize = 11;
 
 fn set_u32(b: &mut [u8], at: usize, v: u32) {
     b[at..at + 4].copy_from_slice(&v.to_le_bytes());
@@ -90,12 +93,14 @@ fn mutated_cache_files_are_rejected_or_harmless() {
     let payload = original.to_payload();
     let secs = sections(&payload);
     println!(
-        "cache file: {} bytes, {} octree nodes, {} points, {} radiance nodes",
+        "cache file: {} bytes, {} octree nodes, {} points, {} radiance nodes, {} visibility bytes",
         file.len(),
         original.octree.len(),
         original.points.len(),
-        original.radiance_nodes.len()
+        original.radiance_nodes.len(),
+        original.env_visibility.len()
     );
+    assert!(!original.env_visibility.is_empty(), "the mutated cache must hold visibility maps");
 
     // 1. Raw mutations of the file: rejected and deleted, or equal to the original.
     let mut rng = Rng::new(15, 1);
@@ -168,6 +173,7 @@ fn mutated_cache_files_are_rejected_or_harmless() {
         (MESHES, mesh, 16, "mesh first_point"),
         (MESHES, mesh, 20, "mesh point_count"),
         (POINTS, point, 40, "point payload"),
+        (VISIBILITY_FIRST, 4, 0, "visibility map offset"),
         (0, 16, 0, "BRDF table n_u1"),
         (0, 16, 4, "BRDF table n_u2"),
         (0, 16, 12, "BRDF table first_tree"),

@@ -7,7 +7,7 @@ mod common;
 
 use glimpse_core::{Rng, Vec3};
 use glimpse_render::FrameContext;
-use glimpse_wavecache::bake::Integrator;
+use glimpse_wavecache::bake::{Integrator, MapSettings};
 use glimpse_wavecache::halfcube::{HalfCube, map_frame};
 use glimpse_wavecache::points::SurfaceSample;
 
@@ -35,7 +35,16 @@ fn light_samples_keep_the_maps_expectation_and_cut_their_noise() {
     let point = SurfaceSample { position: Vec3::new(0.0, 0.0, 0.0), error_scale: 1e-4, normal: Vec3::Y, shading_normal: Vec3::Y };
     let frame = map_frame(Vec3::Y);
     let res = 8;
-    let map = |texel: u32, light: u32, seed: u64| integ.radiance_map(&point, &frame, res, texel, light, &mut Rng::new(seed, 9)).0;
+    let map = |texel: u32, light: u32, seed: u64| {
+        integ
+            .radiance_map(
+                &point,
+                &frame,
+                &MapSettings { res, samples: texel, light_samples: light, split_env: false },
+                &mut Rng::new(seed, 9),
+            )
+            .image
+    };
     let (want, reference) = integral(&map(1024, 0, 1000), res);
     let runs = 12u64;
     let stats = |light: u32| {
