@@ -74,6 +74,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         );
     }
     println!("far {}; cached (after the texel) {:?}; punctual {:?}", reading.far, rt.cached(&s, wo), rt.punctual(&s, wo).0);
+    println!("shaded as the render shades it (one sample): {:?}", rt.shade(&s, wo, 0, &mut Rng::new(0, i as u64)).0);
     // The nearest points of the mesh by brute force, against what the query chose.
     let pts = &cache.points[mc.first_point as usize..(mc.first_point + mc.point_count) as usize];
     let mut near: Vec<(f32, f32, f32)> = pts

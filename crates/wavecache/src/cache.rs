@@ -195,7 +195,8 @@ impl WaveCache {
                 samples.extend(backs);
             }
             let map_res = plan.map_res[i];
-            let split_env = class == Class::Glossy && p.split_env(scene.environment.as_ref(), map_res);
+            let roughness = scene.materials.get(material as usize).map_or(1.0, |m| m.roughness);
+            let split_env = class == Class::Glossy && p.split_env(scene.environment.as_ref(), map_res, roughness);
             let map = bake::MapSettings { res: map_res, samples: p.texel_samples, light_samples: p.texel_light_samples, split_env };
             let baked = bake::bake_points(&integ, samples, class, map, p, seed.wrapping_add(i as u64 * 7919), tick);
             rays += baked.rays;

@@ -79,9 +79,17 @@ pub enum EnvDirect {
     Off,
 }
 
-/// `env_direct=auto`'s bound, in texels of (π/N)² sr: the warehouse map's brighter half spans
-/// 3.4 texels of a 32² map, the studio map's 0.54, the built-in sky's 441.
+/// `env_direct=auto`'s bound on the environment's brighter half, in texels of (π/N)² sr: the
+/// warehouse map's spans 3.4 texels of a 32² map (0.83 of a 16² one), the studio map's 0.54,
+/// the built-in sky's 441.
 pub const ENV_DIRECT_TEXELS: f32 = 1.0;
+
+/// `env_direct=auto`'s bound on the lobe, in texels (2α against π/N, as `sharp_texels`): a lobe
+/// of many texels averages a sub-texel light over several texels of its own and barely aliases
+/// it, while the samples' noise remains (`mixed-lights`' roughness-0.5 bunny, 2.5 texels of its
+/// 16² maps, under the warehouse map: MSE 2.7e-4 → 2.9e-4 split). Spot and the studio sphere
+/// (roughness 0.3 on 32² maps) span 1.8.
+pub const ENV_DIRECT_LOBE_TEXELS: f32 = 2.0;
 
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
@@ -238,8 +246,10 @@ pub struct WavecacheParams {
     /// pixel's own BRDF against the environment map × that visibility by light and BSDF
     /// sampling, with no rays. A map of N² texels cannot resolve a softbox of a fraction of a
     /// texel, and Eq. 20's texel product then aliases it (2× `pt` on `textured-glossy`);
-    /// visibility varies slowly where the light does not (docs/techniques/wavecache.md,
-    /// "The environment's direct light").
+    /// visibility varies slowly where the light does not. `auto`: where the environment's
+    /// brighter half spans under [`ENV_DIRECT_TEXELS`] texels of the material's map and its lobe
+    /// under [`ENV_DIRECT_LOBE_TEXELS`] (docs/techniques/wavecache.md, "The environment's direct
+    /// light").
     pub env_direct: EnvDirect,
     /// Environment samples per pixel sample for `env_direct` (half BSDF, half map; balance
     /// heuristic); runtime only.
@@ -462,16 +472,19 @@ impl WavecacheParams {
         self.back_sides.binary_search(&(i as u32)).is_ok()
     }
 
-    /// Whether glossy maps of N² texels leave the environment's direct light to the runtime
-    /// ([`WavecacheParams::env_direct`]).
-    pub fn split_env(&self, env: Option<&glimpse_scene::Environment>, map_res: u32) -> bool {
+    /// Whether the glossy maps (N² texels) of a material of `roughness` leave the environment's
+    /// direct light to the runtime ([`WavecacheParams::env_direct`]).
+    pub fn split_env(&self, env: Option<&glimpse_scene::Environment>, map_res: u32, roughness: f32) -> bool {
         let Some(env) = env else {
             return false;
         };
         match self.env_direct {
             EnvDirect::Off => false,
             EnvDirect::On => true,
-            EnvDirect::Auto => env.half_power_solid_angle() < ENV_DIRECT_TEXELS * (std::f32::consts::PI / map_res as f32).powi(2),
+            EnvDirect::Auto => {
+                let unresolved = env.half_power_solid_angle() < ENV_DIRECT_TEXELS * (std::f32::consts::PI / map_res as f32).powi(2);
+                unresolved && technique::lobe_finer_than_map(roughness, map_res, ENV_DIRECT_LOBE_TEXELS)
+            }
         }
     }
 

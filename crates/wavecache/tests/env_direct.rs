@@ -63,11 +63,12 @@ fn auto_splits_only_maps_that_cannot_resolve_the_environment() {
     let p = WavecacheParams::default();
     let softbox = studio();
     let even = Environment::constant(Vec3::ONE);
-    assert!(p.split_env(Some(&softbox), 32), "the softbox is under a texel of a 32² map");
-    assert!(!p.split_env(Some(&even), 32) && !p.split_env(None, 32));
-    assert!(!WavecacheParams::paper().split_env(Some(&softbox), 32), "the paper's maps hold all the light");
+    assert!(p.split_env(Some(&softbox), 32, 0.3), "the softbox is under a texel of a 32² map, the lobe under two");
+    assert!(!p.split_env(Some(&softbox), 16, 0.5), "a lobe of 2.5 texels barely aliases it");
+    assert!(!p.split_env(Some(&even), 32, 0.3) && !p.split_env(None, 32, 0.3));
+    assert!(!WavecacheParams::paper().split_env(Some(&softbox), 32, 0.3), "the paper's maps hold all the light");
     let on = WavecacheParams::read(&Params::parse(&["env_direct=on".to_owned()]).unwrap()).unwrap();
-    assert!(on.env_direct == EnvDirect::On && on.split_env(Some(&even), 32));
+    assert!(on.env_direct == EnvDirect::On && on.split_env(Some(&even), 32, 0.9));
 }
 
 #[test]
