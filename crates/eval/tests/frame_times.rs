@@ -1,5 +1,6 @@
 //! Timing that noise cannot decide. Over several frames a run reports the median frame's stats
-//! among the frames after the first (the first pays one-time costs); a short single frame is
+//! among the frames after the first (the first pays one-time costs, and is reported beside
+//! them: `first_frame` in results.json, a line under eval's table); a short single frame is
 //! shaded again and its median pass reported. One pass's time alone decided comparisons by the
 //! noise of a shared machine.
 
@@ -49,9 +50,12 @@ fn a_run_of_frames_reports_the_median_frame_after_the_first() {
     assert_eq!(r.render.rays, 3);
     // The image is still the average of every frame.
     assert_eq!(r.image.pixels[0].x, 2.0);
+    // The first frame's time (its one-time work) is kept beside the median.
+    assert_eq!(r.first_frame_ms, Some(101.0));
     // One frame: its own stats.
     let mut one = Scripted { times: vec![42.0], frame: 0 };
-    assert_eq!(render_frames(&mut one, &mut ctx, &g, 1).unwrap().render.total_ms(), 42.0);
+    let single = render_frames(&mut one, &mut ctx, &g, 1).unwrap();
+    assert_eq!((single.render.total_ms(), single.first_frame_ms), (42.0, None));
 }
 
 /// A single frame whose shading took under `STEADY_BELOW_MS` is shaded again, and the median
