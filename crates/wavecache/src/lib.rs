@@ -91,6 +91,17 @@ pub const ENV_DIRECT_TEXELS: f32 = 1.0;
 /// (roughness 0.3 on 32² maps) span 1.8.
 pub const ENV_DIRECT_LOBE_TEXELS: f32 = 2.0;
 
+/// `trace_disagree=auto`'s factor where the environment is a small source.
+pub const AUTO_DISAGREE: f32 = 3.0;
+
+/// Whether the environment's brighter half (by power) spans under 0.01 sr, about one texel of a
+/// 32² radiance map: a studio map's softboxes (0.0052 sr), not the warehouse map (0.032) nor a
+/// sky (4.25). Its shadows are hard, and blending cache points across them smears light into
+/// the umbra (`trace_disagree=auto`).
+pub fn small_env_source(env: Option<&glimpse_scene::Environment>) -> bool {
+    env.is_some_and(|e| e.half_power_solid_angle() < 0.01)
+}
+
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
 pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
@@ -192,15 +203,19 @@ pub struct WavecacheParams {
     /// undersides) otherwise reads one several r_max away or turned 90°: black where lit, or
     /// over 2× `pt`. See docs/techniques/wavecache.md ("Far points").
     pub trace_far: f32,
-    /// `trace_disagree` (ours; `inf`, the default and `profile=paper`, = never): a diffuse pixel
-    /// whose blended points' irradiances differ by more than this factor (brightest over
-    /// darkest luminance) is traced as a far one is. Such points straddle a shadow edge or a
-    /// bright spot the cache samples coarsely, and their weighted mean paints light into the
-    /// umbra (`studio-objects`: 63 pixels over 2× `pt`, 25 with 3). Off by default: the traced
-    /// pixels take the pixel's spp, and on the tuned `bunny-glossy` at 128 spp (0.6 % of the
-    /// pixels, its contact shadow) the shading took 3× as long. See
+    /// `trace_disagree` (ours; `inf` = never, `profile=paper`): a diffuse pixel whose blended
+    /// points' irradiances differ by more than this factor (brightest over darkest luminance) is
+    /// traced as a far one is. Such points straddle a shadow edge or a bright spot the cache
+    /// samples coarsely, and their weighted mean paints light into the umbra (`studio-objects`:
+    /// 63 pixels over 2× `pt`, 25 with 3). The traced pixels take the pixel's spp, and on the
+    /// tuned `bunny-glossy` (a sky) at 128 spp (0.6 % of the pixels, its contact shadow) the
+    /// shading took 3× as long, so the default, `auto` ([`WavecacheParams::disagree_auto`]), is
+    /// [`AUTO_DISAGREE`] only under an environment whose bright half is a small source
+    /// ([`small_env_source`]), where shadow edges are hard, and never elsewhere. See
     /// docs/techniques/wavecache.md ("Disagreeing points").
     pub trace_disagree: f32,
+    /// `trace_disagree=auto` (the default): `trace_disagree` is chosen from the environment.
+    pub disagree_auto: bool,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max
     /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
@@ -303,6 +318,7 @@ impl Default for WavecacheParams {
             search_radius: 8.0,
             trace_far: DEFAULT_TRACE_FAR,
             trace_disagree: f32::INFINITY,
+            disagree_auto: true,
             blend: 4,
             blend_glossy: 2,
             blend_radius: 2.0,
@@ -343,6 +359,7 @@ impl WavecacheParams {
             search_radius: f32::INFINITY,
             trace_far: f32::INFINITY,
             trace_disagree: f32::INFINITY,
+            disagree_auto: false,
             blend: 1,
             blend_glossy: 1,
             enclosed_share: 1.0,
@@ -370,6 +387,7 @@ impl WavecacheParams {
             search_radius: d.search_radius,
             trace_far: d.trace_far,
             trace_disagree: d.trace_disagree,
+            disagree_auto: d.disagree_auto,
             blend: d.blend,
             blend_glossy: d.blend_glossy,
             blend_radius: d.blend_radius,
@@ -431,7 +449,11 @@ impl WavecacheParams {
             normal_cutoff_deg: params.f32("normal_cutoff_deg", base.normal_cutoff_deg, 0.0, 180.0)?,
             search_radius: params.f32("search_radius", base.search_radius, 0.0, f32::INFINITY)?,
             trace_far: params.f32("trace_far", base.trace_far, 0.0, f32::INFINITY)?,
-            trace_disagree: params.f32("trace_disagree", base.trace_disagree, 1.0, f32::INFINITY)?,
+            trace_disagree: match params.text("trace_disagree", if base.disagree_auto { "auto" } else { "inf" }).as_str() {
+                "auto" => base.trace_disagree,
+                _ => params.f32("trace_disagree", base.trace_disagree, 1.0, f32::INFINITY)?,
+            },
+            disagree_auto: params.text("trace_disagree", if base.disagree_auto { "auto" } else { "inf" }) == "auto",
             blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
             blend_glossy: params.u32("blend_glossy", base.blend_glossy, 1, technique::MAX_BLEND as u32)?,
             blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,

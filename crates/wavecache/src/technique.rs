@@ -208,6 +208,8 @@ pub struct Runtime<'a> {
     pub pixel_env_samples: u32,
     /// The environment's sampler for `env_direct` (where some map has a visibility map).
     env_sampler: Option<crate::env_direct::EnvSampler>,
+    /// `trace_disagree` as it applies to this scene (`auto` chosen from the environment).
+    pub trace_disagree: f32,
 }
 
 /// Whether a GGX lobe of `roughness` is narrower than a texel of a radiance half-cube map of
@@ -321,7 +323,13 @@ impl<'a> Runtime<'a> {
         let pixel_env_samples = params.env_direct_samples;
         let env_sampler =
             frame.scene.environment.as_ref().filter(|_| !cache.env_visibility.is_empty()).map(crate::env_direct::EnvSampler::new);
-        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff, pixel_env_samples, env_sampler }
+        let small_source = crate::small_env_source(frame.scene.environment.as_ref());
+        let trace_disagree = match (params.disagree_auto, small_source) {
+            (true, true) => crate::AUTO_DISAGREE,
+            (true, false) => f32::INFINITY,
+            (false, _) => params.trace_disagree,
+        };
+        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff, pixel_env_samples, env_sampler, trace_disagree }
     }
 
     /// The cache point chosen for the shaded point `s` (normal `ns` for the score), on the side
@@ -400,10 +408,10 @@ impl<'a> Runtime<'a> {
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
         let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
-        if diffuse && blend > 1 && self.params.trace_disagree.is_finite() {
+        if diffuse && blend > 1 && self.trace_disagree.is_finite() {
             let lum = |p: &CachePoint| glimpse_core::luminance(self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO));
             let (lo, hi) = reading.blended().map(|(p, _)| lum(p)).fold((f32::INFINITY, 0.0f32), |(lo, hi), l| (lo.min(l), hi.max(l)));
-            reading.far |= hi > self.params.trace_disagree * lo;
+            reading.far |= hi > self.trace_disagree * lo;
         }
         reading
     }

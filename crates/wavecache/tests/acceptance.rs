@@ -1005,6 +1005,7 @@ fn far_cache_points_are_traced_not_read() {
             min_points: 1,
             trace_far,
             trace_disagree: f32::INFINITY,
+            disagree_auto: false,
             ..small_params()
         };
         let mut t = Wavecache::with_params(&settings, p);
@@ -1036,7 +1037,8 @@ fn far_cache_points_are_traced_not_read() {
     assert!(dense.pixels == dense_read.pixels, "the same image where no point is far");
 }
 
-/// `trace_disagree=3` (off by default): a box on a floor under a strong sun, with a coarse
+/// `trace_disagree=3` (`auto` by default: 3 only under a small bright environment source): a
+/// box on a floor under a strong sun, with a coarse
 /// cache. The floor pixels whose blended points' irradiances differ by more than 3× (the
 /// shadow's edges, where the mean paints sunlight into the umbra) are traced, and the pixels
 /// over 2× `pt` go.
@@ -1065,7 +1067,7 @@ material = { base_color = [0.7, 0.5, 0.4] }
     let reference = pt_reference(&ctx, &g, 256, 5);
     let settings = Settings { spp: 16, seed: 1 };
     let run = |trace_disagree: f32| {
-        let p = WavecacheParams { diffuse_points: 200, glossy_points: 200, trace_disagree, ..small_params() };
+        let p = WavecacheParams { diffuse_points: 200, glossy_points: 200, trace_disagree, disagree_auto: false, ..small_params() };
         let mut t = Wavecache::with_params(&settings, p);
         t.prepare(&ctx).expect("prepare");
         let mut img = ctx.image();

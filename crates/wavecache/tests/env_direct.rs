@@ -72,6 +72,21 @@ fn auto_splits_only_maps_that_cannot_resolve_the_environment() {
 }
 
 #[test]
+fn disagreeing_points_are_traced_under_small_sources_by_default() {
+    // `trace_disagree=auto`: the softbox's hard shadows are traced where the blended points
+    // disagree; a constant sky's soft ones are not worth the traced pixels' time.
+    assert!(glimpse_wavecache::small_env_source(Some(&studio())));
+    assert!(!glimpse_wavecache::small_env_source(Some(&Environment::constant(Vec3::ONE))) && !glimpse_wavecache::small_env_source(None));
+    let read = |args: &[&str]| WavecacheParams::read(&Params::parse(args).unwrap()).unwrap();
+    let auto = read(&[]);
+    assert!(auto.disagree_auto);
+    let fixed = read(&["trace_disagree=4"]);
+    assert!(!fixed.disagree_auto && fixed.trace_disagree == 4.0);
+    let paper = read(&["profile=paper"]);
+    assert!(!paper.disagree_auto && paper.trace_disagree.is_infinite());
+}
+
+#[test]
 fn a_small_softbox_on_glossy_surfaces_matches_pt() {
     let scene = studio_scene();
     let ctx = FrameContext::new(&scene, 0.0, 48, 36);
