@@ -430,8 +430,8 @@ impl WaveCache {
         }
         for (i, (&first, t)) in self.env_visibility_first.iter().zip(&self.radiance_trees).enumerate() {
             let texels = 1u64 << (2 * t.levels);
-            if first != NO_VISIBILITY && first as u64 + texels > self.env_visibility.len() as u64 {
-                return Err(format!("radiance tree {i}: visibility map at {first} out of range"));
+            if first != NO_VISIBILITY && (t.levels < 2 || first as u64 + texels > self.env_visibility.len() as u64) {
+                return Err(format!("radiance tree {i}: visibility map of {texels} texels at {first} out of range"));
             }
         }
         if self.brdf_black.len() != materials {

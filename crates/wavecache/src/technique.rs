@@ -523,9 +523,10 @@ impl<'a> Runtime<'a> {
         let mut maps = [(glimpse_core::Frame::from_z(Vec3::Z), &[][..], 0u32, 0.0f32); MAX_BLEND];
         let mut count = 0;
         for (p, w) in reading.blended().filter(|(p, _)| with_map(p)) {
+            // In range: `WaveCache::validate` checked every map's N² bytes (N ≥ 4).
             let first = c.env_visibility_first[p.payload as usize] as usize;
             let res = 1u32 << c.radiance_trees[p.payload as usize].levels;
-            let texels = c.env_visibility.get(first..first + (res * res) as usize).unwrap_or(&[]);
+            let texels = c.env_visibility.get(first..first + res as usize * res as usize).unwrap_or(&[]);
             maps[count] = (map_frame(Vec3::from(p.shading_normal)), texels, res, w);
             count += 1;
         }
@@ -538,7 +539,7 @@ impl<'a> Runtime<'a> {
                         return 0.0;
                     }
                     let (x, y) = HalfCube::new(*res).texel_of(local);
-                    texels[(y * res + x) as usize] as f32 / 255.0 * w
+                    texels[y as usize * *res as usize + x as usize] as f32 / 255.0 * w
                 })
                 .sum()
         };

@@ -166,6 +166,7 @@ fn mutated_cache_files_are_rejected_or_harmless() {
         (BRDF_TREES, tree, 8, "BRDF tree levels"),
         (RADIANCE_TREES, tree, 0, "radiance tree first"),
         (RADIANCE_TREES, tree, 4, "radiance tree count"),
+        (RADIANCE_TREES, tree, 8, "radiance tree levels"),
         (RADIANCE_TREES, tree, 12, "radiance tree depth"),
         (MESHES, mesh, 4, "mesh material"),
         (MESHES, mesh, 8, "mesh first_node"),
