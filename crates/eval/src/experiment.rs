@@ -115,8 +115,6 @@ pub struct Rendered {
     pub first_frame_ms: Option<f64>,
 }
 
-/// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
-/// (references at high spp, a voxel array build, a wavelet precompute).
 /// The reference cache's key for technique `id` rendered with `params` at `spp` and `seed` over
 /// `frames` frames on the run's scene, size, time, film and overrides.
 fn reference_key(cfg: &EvalConfig, ctx: &FrameContext, id: &str, params: &Params, spp: u32, seed: u64, frames: u32) -> String {
@@ -151,6 +149,8 @@ fn converged_env_exact(cfg: &EvalConfig, ctx: &FrameContext, gbuffer: &GBuffer, 
     Ok(image)
 }
 
+/// `prepare` then `render`, each with a spinner or pixel bar on a terminal when it runs long
+/// (references at high spp, a voxel array build, a wavelet precompute).
 pub fn render_once(technique: &mut dyn Technique, ctx: &FrameContext, gbuffer: &GBuffer) -> Result<Rendered> {
     let id = technique.id();
     let prepare = with_spinner(&format!("preparing {id}"), || technique.prepare(ctx))?;

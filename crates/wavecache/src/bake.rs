@@ -209,14 +209,16 @@ impl<'a> Integrator<'a> {
                     }
                     add(x, y, a.reflected, HalfCube::jacobian(uv) as f64 * texel_area / s_count as f64);
                     if let (Some(vis), Some(env)) = (vis.as_mut(), env) {
-                        let open = env.radiance(dir);
-                        let w = 1.0 / denominator(local, 0.0, env.pdf(dir));
+                        // What the environment would send along the ray unoccluded (an escaped
+                        // ray's arrival holds it already), weighted as the light samples are.
+                        let (open, env_pdf) = if a.escaped { (a.emitted, a.env_pdf) } else { (env.radiance(dir), env.pdf(dir)) };
+                        let light = luminance(open) as f64 * (1.0 / denominator(local, 0.0, env_pdf));
                         let v = &mut vis[(y * res + x) as usize];
-                        v[1] += luminance(open) as f64 * w;
-                        v[2] += a.escaped as u32 as f64;
+                        v[1] += light;
                         v[3] += 1.0;
                         if a.escaped {
-                            v[0] += luminance(a.emitted) as f64 * w;
+                            v[0] += light;
+                            v[2] += 1.0;
                             continue;
                         }
                     }
