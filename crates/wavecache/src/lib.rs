@@ -91,7 +91,7 @@ pub const ENV_DIRECT_TEXELS: f32 = 1.0;
 /// (roughness 0.3 on 32² maps) span 1.8.
 pub const ENV_DIRECT_LOBE_TEXELS: f32 = 2.0;
 
-/// `trace_disagree=auto`'s factor where the environment is a small source.
+/// `trace_disagree=auto`'s factor where the cached light comes from small sources.
 pub const AUTO_DISAGREE: f32 = 3.0;
 
 /// Whether the environment's brighter half (by power) spans under 0.01 sr, about one texel of a
@@ -100,6 +100,52 @@ pub const AUTO_DISAGREE: f32 = 3.0;
 /// the umbra (`trace_disagree=auto`).
 pub fn small_env_source(env: Option<&glimpse_scene::Environment>) -> bool {
     env.is_some_and(|e| e.half_power_solid_angle() < 0.01)
+}
+
+/// The solid angle, in sr, that the emitters sending the brighter half of the area lights'
+/// power span from a quarter of the scene's diagonal away (each emissive instance as the disc
+/// of its bounding sphere; `None` without emissive triangles): the area lights' analogue of
+/// [`glimpse_scene::Environment::half_power_solid_angle`]. `glints`' 2 cm spheres: 0.0034 sr;
+/// the built-in `cornell`'s ceiling light 0.38.
+pub fn emitters_half_power_solid_angle(frame: &glimpse_scene::SceneFrame) -> Option<f32> {
+    use std::collections::BTreeMap;
+    let mut instances: BTreeMap<u32, (f64, glimpse_core::Aabb)> = BTreeMap::new();
+    for e in &frame.emissive {
+        let (power, bounds) = instances.entry(e.instance).or_insert((0.0, glimpse_core::Aabb::EMPTY));
+        *power += (glimpse_core::luminance(e.radiance) * e.area) as f64;
+        *bounds = e.vertices.iter().fold(*bounds, |b, v| b.grow(*v));
+    }
+    let total: f64 = instances.values().map(|(p, _)| p).sum();
+    if instances.is_empty() || total.is_nan() || total <= 0.0 {
+        return None;
+    }
+    let distance = 0.25 * frame.bounds.extent().length();
+    let mut by_power: Vec<_> = instances.into_values().collect();
+    by_power.sort_by(|a, b| b.0.total_cmp(&a.0));
+    let (mut power, mut solid_angle) = (0.0, 0.0f32);
+    for (p, b) in by_power {
+        if power >= 0.5 * total {
+            break;
+        }
+        power += p;
+        let radius = 0.5 * b.extent().length();
+        solid_angle += (std::f32::consts::PI * radius * radius / (distance * distance)).min(2.0 * std::f32::consts::PI);
+    }
+    Some(solid_angle)
+}
+
+/// Whether the light the cache holds comes mostly from small sources, whose shadows are hard
+/// (`trace_disagree=auto`): an environment whose brighter half spans under 0.01 sr
+/// ([`small_env_source`]), or, with no environment, area lights whose brighter half spans under
+/// 0.01 sr ([`emitters_half_power_solid_angle`]: `glints`' emissive spheres, not a Cornell
+/// box's ceiling light). Punctual lights are shaded at the pixel, not cached. A small emitter
+/// under an environment is left out: how the two compare in power is not known here, and under
+/// a sky a pixel traced for the sky's contact shadows costs its spp for little (session 19).
+pub fn small_cached_sources(frame: &glimpse_scene::SceneFrame) -> bool {
+    match frame.scene.environment.as_ref() {
+        Some(env) => small_env_source(Some(env)),
+        None => emitters_half_power_solid_angle(frame).is_some_and(|o| o < 0.01),
+    }
 }
 
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
@@ -210,11 +256,12 @@ pub struct WavecacheParams {
     /// 63 pixels over 2× `pt`, 25 with 3). The traced pixels take the pixel's spp, and on the
     /// tuned `bunny-glossy` (a sky) at 128 spp (0.6 % of the pixels, its contact shadow) the
     /// shading took 3× as long, so the default, `auto` ([`WavecacheParams::disagree_auto`]), is
-    /// [`AUTO_DISAGREE`] only under an environment whose bright half is a small source
-    /// ([`small_env_source`]), where shadow edges are hard, and never elsewhere. See
+    /// [`AUTO_DISAGREE`] only where the cached light comes from small sources
+    /// ([`small_cached_sources`]: a studio map, small emitters without a map), whose shadow
+    /// edges are hard, and never elsewhere. See
     /// docs/techniques/wavecache.md ("Disagreeing points").
     pub trace_disagree: f32,
-    /// `trace_disagree=auto` (the default): `trace_disagree` is chosen from the environment.
+    /// `trace_disagree=auto` (the default): `trace_disagree` is chosen from the light sources.
     pub disagree_auto: bool,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max

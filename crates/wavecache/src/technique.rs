@@ -343,7 +343,7 @@ impl<'a> Runtime<'a> {
         let emitters = direct::EmitterIndex::new(frame);
         let normal_cutoff = params.normal_cutoff_deg.to_radians().cos();
         let pixel_env_samples = params.env_direct_samples;
-        let small_source = crate::small_env_source(frame.scene.environment.as_ref());
+        let small_source = crate::small_cached_sources(frame);
         let trace_disagree = match (params.disagree_auto, small_source) {
             (true, true) => crate::AUTO_DISAGREE,
             (true, false) => f32::INFINITY,

@@ -44,6 +44,12 @@ fn studio_scene() -> Scene {
     scene
 }
 
+/// The area lights' brighter half's solid angle and `small_cached_sources`.
+fn small_cached(scene: &Scene) -> (f32, bool) {
+    let frame = scene.at(0.0);
+    (glimpse_wavecache::emitters_half_power_solid_angle(&frame).unwrap(), glimpse_wavecache::small_cached_sources(&frame))
+}
+
 fn params() -> WavecacheParams {
     WavecacheParams {
         brdf_grid_u1: 16,
@@ -77,6 +83,24 @@ fn disagreeing_points_are_traced_under_small_sources_by_default() {
     // disagree; a constant sky's soft ones are not worth the traced pixels' time.
     assert!(glimpse_wavecache::small_env_source(Some(&studio())));
     assert!(!glimpse_wavecache::small_env_source(Some(&Environment::constant(Vec3::ONE))) && !glimpse_wavecache::small_env_source(None));
+    // Area lights with no map: 2 cm emissive spheres in a 6 m room are small sources (`glints`,
+    // 0.0034 sr), a Cornell box's ceiling light is not (0.38 sr); a small emitter under a map is
+    // left to the map's rule.
+    const LIGHT: &str = "translate = [0.0, 2.0, 0.0]\nmaterial = { base_color = [0.0, 0.0, 0.0], emission = [500.0, 500.0, 500.0] }\n";
+    let room = |emitter: &str| {
+        common::scene_from_toml(&format!(
+            "[[quad]]\nsize = [6.0, 6.0]\nmaterial = {{ base_color = [0.5, 0.5, 0.5] }}\n\
+             [[sphere]]\nradius = 0.5\ntranslate = [0.0, 0.5, 0.0]\nmaterial = {{ base_color = [0.5, 0.5, 0.5] }}\n{emitter}{LIGHT}"
+        ))
+    };
+    let sphere = "[[sphere]]\nradius = 0.02\n";
+    let (solid_angle, small) = small_cached(&room(sphere));
+    assert!(solid_angle < 0.01 && small, "a 2 cm sphere: {solid_angle} sr");
+    let (solid_angle, small) = small_cached(&room("[[quad]]\nsize = [2.0, 2.0]\n"));
+    assert!(solid_angle > 0.01 && !small, "a 2 m panel: {solid_angle} sr");
+    let mut under_sky = room(sphere);
+    under_sky.environment = Some(Environment::constant(Vec3::ONE));
+    assert!(!small_cached(&under_sky).1);
     let read = |args: &[&str]| WavecacheParams::read(&Params::parse(args).unwrap()).unwrap();
     let auto = read(&[]);
     assert!(auto.disagree_auto);
