@@ -184,13 +184,20 @@ pub fn compress_slabs<R: Row>(
                 fill(k, buf);
                 let mut local: FxHashMap<R, u32> = FxHashMap::default();
                 let mut distinct: Vec<(R, u64)> = Vec::new();
+                // Neighbouring rows are mostly equal (empty space, a wall's run): the previous
+                // row's id skips the hash lookup (the same ids, in the same order).
+                let mut previous: Option<(R, u32)> = None;
                 let ids = buf
                     .iter()
                     .map(|&r| {
-                        let id = *local.entry(r).or_insert_with(|| {
-                            distinct.push((r, 0));
-                            (distinct.len() - 1) as u32
-                        });
+                        let id = match previous {
+                            Some((q, id)) if q == r => id,
+                            _ => *local.entry(r).or_insert_with(|| {
+                                distinct.push((r, 0));
+                                (distinct.len() - 1) as u32
+                            }),
+                        };
+                        previous = Some((r, id));
                         distinct[id as usize].1 += 1;
                         id
                     })
