@@ -189,6 +189,9 @@ fn random_and_adversarial_segments_agree_with_the_cpu() {
         let mut gpu = GpuVoxArray::new(&ctx, &array).unwrap();
         let label = format!("{resolution}³ {} (f64 division: {})", if compress.is_some() { "compressed" } else { "plain" }, gpu.exact_f64);
         assert_agrees(&compare(&ctx, &mut gpu, &array, &random, &format!("{label}, random")));
+        // The bench's busy warm-up between two queries leaves the next one's answers alone.
+        gpu.keep_busy(&ctx, &random, 3).unwrap();
+        gpu.keep_busy(&ctx, &[], 3).unwrap();
         let adversarial = adversarial_segments(&array, resolution as u64);
         assert_agrees(&compare(&ctx, &mut gpu, &array, &adversarial, &format!("{label}, adversarial")));
     }
