@@ -493,8 +493,8 @@ pub fn bench_rays(ctx: &GpuContext, array: &VoxArray, rays: &[(Ray, f32)]) -> Re
     // same time (clocks): a pass is well under a millisecond of kernel beside ~10 ms of copies,
     // so passes alone leave the GPU mostly idle. On an H200, after the 1.3–7 s CPU build of the
     // array with the GPU idle, 4 of 7 processes timed every pass at a quarter of the speed of a
-    // process that loaded the array from the disk cache (session 22, docs/gpu.md); the best of
-    // 5 timed passes did not change that.
+    // process that loaded the array from the disk cache; the best of 5 timed passes did not
+    // change that, this busy warm-up took Sponza's 3.7× to 5.5–5.7× (loaded: 15×; docs/gpu.md).
     glimpse_gpu::timer::warm_up(|| gpu.occluded_segments(ctx, &segments).map(drop))?;
     glimpse_gpu::timer::warm_up(|| gpu.keep_busy(ctx, &segments, BUSY_DISPATCHES))?;
     let (mut kernel_ms, mut wall_ms, mut answers) = (f64::INFINITY, f64::INFINITY, Vec::new());
