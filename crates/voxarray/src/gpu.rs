@@ -186,6 +186,20 @@ impl GpuVoxArray {
         self.chunk
     }
 
+    /// Uploads one chunk of segments (at most [`Self::chunk_size`]) and its count, and binds
+    /// them with the array for the query kernel.
+    fn bind_batch(&mut self, ctx: &GpuContext, batch: &[(Vec3, Vec3)]) -> Result<wgpu::BindGroup, GpuVoxArrayError> {
+        let packed: Vec<[f32; 4]> = batch.iter().flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
+        self.segments.upload(ctx, &packed)?;
+        self.out.reserve(ctx, batch.len() as u64 * 4)?;
+        write(ctx, &self.params_buffer, &[Params { count: batch.len() as u32, ..self.data.params }])?;
+        let mut entries = vec![(0, &self.params_buffer), (1, &self.data.cos_sin), (2, &self.segments.buffer), (3, &self.out.buffer)];
+        for (k, b) in self.data.rows.iter().chain(&self.data.indices).enumerate() {
+            entries.push((FIRST_DATA_BINDING + k as u32, b));
+        }
+        Ok(self.kernel.bind(ctx, &entries))
+    }
+
     /// Keeps the GPU busy with the query kernel: the first chunk of `segments` uploaded once,
     /// then `dispatches` dispatches of it in one submission, waited for; no answers read back.
     /// A warm-up for timing: one [`Self::occluded_segments`] pass is a fraction of a millisecond
@@ -195,15 +209,7 @@ impl GpuVoxArray {
         if batch.is_empty() {
             return Ok(());
         }
-        let packed: Vec<[f32; 4]> = batch.iter().flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
-        self.segments.upload(ctx, &packed)?;
-        self.out.reserve(ctx, batch.len() as u64 * 4)?;
-        write(ctx, &self.params_buffer, &[Params { count: batch.len() as u32, ..self.data.params }])?;
-        let mut entries = vec![(0, &self.params_buffer), (1, &self.data.cos_sin), (2, &self.segments.buffer), (3, &self.out.buffer)];
-        for (k, b) in self.data.rows.iter().chain(&self.data.indices).enumerate() {
-            entries.push((FIRST_DATA_BINDING + k as u32, b));
-        }
-        let bind = self.kernel.bind(ctx, &entries);
+        let bind = self.bind_batch(ctx, batch)?;
         let mut encoder = ctx.device.create_command_encoder(&Default::default());
         for _ in 0..dispatches {
             self.kernel.dispatch(&mut encoder, &bind, workgroups(batch.len(), WORKGROUP), None);
@@ -219,15 +225,7 @@ impl GpuVoxArray {
         let mut timer = GpuTimer::new(ctx, segments.len().div_ceil(self.chunk).max(1) as u32);
         let mut out = Vec::with_capacity(segments.len());
         for batch in segments.chunks(self.chunk) {
-            let packed: Vec<[f32; 4]> = batch.iter().flat_map(|(a, b)| [a.extend(0.0).to_array(), b.extend(0.0).to_array()]).collect();
-            self.segments.upload(ctx, &packed)?;
-            self.out.reserve(ctx, batch.len() as u64 * 4)?;
-            write(ctx, &self.params_buffer, &[Params { count: batch.len() as u32, ..self.data.params }])?;
-            let mut entries = vec![(0, &self.params_buffer), (1, &self.data.cos_sin), (2, &self.segments.buffer), (3, &self.out.buffer)];
-            for (k, b) in self.data.rows.iter().chain(&self.data.indices).enumerate() {
-                entries.push((FIRST_DATA_BINDING + k as u32, b));
-            }
-            let bind = self.kernel.bind(ctx, &entries);
+            let bind = self.bind_batch(ctx, batch)?;
             let mut encoder = ctx.device.create_command_encoder(&Default::default());
             self.kernel.dispatch(&mut encoder, &bind, workgroups(batch.len(), WORKGROUP), timer.pass("voxarray query"));
             ctx.queue.submit([encoder.finish()]);
