@@ -17,6 +17,7 @@ use crate::halfcube::HalfCube;
 use bytemuck::{Pod, Zeroable};
 use glimpse_core::{Vec2, Vec3};
 use glimpse_render::bsdf::{BrdfModel, Bsdf};
+use glimpse_scene::MaterialModel;
 use rayon::prelude::*;
 use std::f32::consts::{PI, TAU};
 
@@ -64,19 +65,32 @@ pub fn bilinear(wo: Vec3, n_u1: u32, n_u2: u32) -> [(u32, u32, f32); 4] {
     [(i0, j0, (1.0 - fi) * (1.0 - fj)), (i0, j1, (1.0 - fi) * fj), (i1, j0, fi * (1.0 - fj)), (i1, j1, fi * fj)]
 }
 
-/// The material as the tables see it.
+/// The material as the tables see it: the integrator's BRDF model and the material's own
+/// (a conductor's GGX lobe with its complex Fresnel term, a Lambertian `diffuse`), as `pt`
+/// shades it ([`Bsdf::for_material`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MaterialBrdf {
     pub model: BrdfModel,
+    pub material: MaterialModel,
     pub base: Vec3,
     pub metallic: f32,
     pub roughness: f32,
 }
 
 impl MaterialBrdf {
+    /// The glTF metallic-roughness BRDF of `base`, `metallic`, `roughness`.
+    pub fn pbr(base: Vec3, metallic: f32, roughness: f32) -> Self {
+        Self { model: BrdfModel::Pbr, material: MaterialModel::Pbr, base, metallic, roughness }
+    }
+
+    /// The BRDF at ω_o in the local frame (z = normal).
+    fn bsdf(&self, wo: Vec3) -> Option<Bsdf> {
+        Bsdf::for_material(self.model, self.material, self.base, self.metallic, self.roughness, Vec3::Z, Vec3::Z, wo)
+    }
+
     /// f(ω_i, ω_o) in the local frame (z = normal).
     pub fn eval(&self, wi: Vec3, wo: Vec3) -> Vec3 {
-        Bsdf::new(self.model, self.base, self.metallic, self.roughness, Vec3::Z, Vec3::Z, wo).map_or(Vec3::ZERO, |b| b.eval_local(wi))
+        self.bsdf(wo).map_or(Vec3::ZERO, |b| b.eval_local(wi))
     }
 }
 
@@ -84,7 +98,7 @@ impl MaterialBrdf {
 /// texel (uniform over the texel's face area, weighted by the cube Jacobian).
 pub fn brdf_image(m: &MaterialBrdf, wo: Vec3, res: u32, strata: u32) -> Vec<[f64; 3]> {
     let h = HalfCube::new(res);
-    let bsdf = Bsdf::new(m.model, m.base, m.metallic, m.roughness, Vec3::Z, Vec3::Z, wo);
+    let bsdf = m.bsdf(wo);
     let s2 = (strata * strata) as f32;
     let mut img = vec![[0.0f64; 3]; h.texels()];
     let Some(bsdf) = bsdf else {

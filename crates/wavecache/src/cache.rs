@@ -18,7 +18,8 @@ use glimpse_core::bounded_read::{ReadError, limit};
 use glimpse_core::cache_file::{self, CacheFileError, CacheFormat};
 use glimpse_core::memory_budget::BudgetError;
 use glimpse_render::Stopwatch;
-use glimpse_scene::SceneFrame;
+use glimpse_render::bsdf::BrdfModel;
+use glimpse_scene::{MaterialModel, SceneFrame};
 use glimpse_trace::ExactTracer;
 use std::path::{Path, PathBuf};
 
@@ -131,7 +132,7 @@ impl WaveCache {
                 .iter()
                 .enumerate()
                 .any(|(ii, i)| scene.meshes[i.mesh as usize].material as usize == mi && inst_class[ii] == Class::Glossy);
-            let mb = MaterialBrdf { model: p.brdf, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
+            let mb = MaterialBrdf { model: p.brdf, material: m.model, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
             let beta = bake::brdf_beta(m.roughness, p.brdf_beta_scale);
             let mut tabulate = |mb: &MaterialBrdf| {
                 brdf::tabulate(
@@ -155,7 +156,10 @@ impl WaveCache {
             c.brdf_tables.push(table);
             c.brdf_black.push(black);
             c.check_budget()?;
-            let (model, r) = if classes[mi] == Class::Diffuse { (p.brdf, m.roughness) } else { (BrdfModel::Lambert, 1.0) };
+            // Eq. 19's albedos: the glTF material's lobes, Lambert's (A_d = 1, A_s = 0) for a
+            // `diffuse` one, as `pt` shades it.
+            let lambertian = m.model == MaterialModel::Diffuse || classes[mi] != Class::Diffuse;
+            let (model, r) = if lambertian { (BrdfModel::Lambert, 1.0) } else { (p.brdf, m.roughness) };
             c.albedo.extend(brdf::albedo_table(model, r, ALBEDO_BINS, 64));
         }
         let brdf_ms = sw.ms();
@@ -487,8 +491,6 @@ impl WaveCache {
     }
 }
 
-use glimpse_render::bsdf::BrdfModel;
-
 /// Levels of the largest half-cube a tree may come from (N = 2^16 ≫ any map resolution); it
 /// bounds [`haar::product`]'s fixed stack (3 entries per level + 1 ≤ 64).
 pub const MAX_HAAR_LEVELS: u32 = 16;
@@ -713,14 +715,21 @@ pub fn mean_rays_per_path(frame: &SceneFrame, tracer: &ExactTracer, p: &Wavecach
     (rays as f64 / starts.len() as f64).max(1.0)
 }
 
+/// Bumped when the precomputation's result changes for the same scene and parameters, so a
+/// cache written by older code is not read: 2 = the materials' own models (a conductor's
+/// Fresnel, a Lambertian `diffuse`) in the BRDF and albedo tables (session 23).
+const CACHE_REVISION: u32 = 2;
+
 /// The disk-cache key: the scene's geometry (world transforms, positions, normals, indices),
 /// materials, textures, lights and environment, every parameter that changes the result, the seed
-/// and the crate version and results revision ([`glimpse_render::RESULTS_REVISION`]).
+/// and the crate version, results revision ([`glimpse_render::RESULTS_REVISION`]) and
+/// [`CACHE_REVISION`].
 pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
     let scene = frame.scene;
     let mut h = Fnv::default();
     h.bytes(env!("CARGO_PKG_VERSION").as_bytes());
     h.bytes(&glimpse_render::RESULTS_REVISION.to_le_bytes());
+    h.bytes(&CACHE_REVISION.to_le_bytes());
     // Every parameter that changes the cache, and none that only the runtime reads.
     let p = p.precompute_part();
     h.bytes(format!("{p:?} seed={seed}").as_bytes());

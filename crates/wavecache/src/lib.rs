@@ -562,10 +562,19 @@ impl WavecacheParams {
         bake::table2_resolution(roughness).map(|n| (n / self.map_scale).max(4))
     }
 
-    /// The class of a material.
+    /// The class of a material. The paper's materials are glTF's; of the other models, a
+    /// Lambertian `diffuse` one is cached as diffuse, a conductor (no diffuse lobe: its
+    /// `metallic` is 0, so the rule below would call a rough one diffuse) as glossy or a mirror
+    /// by its roughness, and smooth glass, whose lobes are deltas, is traced
+    /// ([`technique::Runtime`]'s glass chain) like a mirror, with no cache points.
     pub fn classify(&self, m: &glimpse_scene::Material) -> Class {
-        if self.brdf == BrdfModel::Lambert || m.is_emissive() {
+        use glimpse_scene::MaterialModel;
+        if self.brdf == BrdfModel::Lambert || m.is_emissive() || m.model == MaterialModel::Diffuse {
             Class::Diffuse
+        } else if matches!(m.model, MaterialModel::Dielectric { .. }) {
+            Class::Mirror
+        } else if matches!(m.model, MaterialModel::Conductor { .. }) {
+            if m.roughness < self.mirror_roughness { Class::Mirror } else { Class::Glossy }
         } else if m.roughness < self.mirror_roughness {
             Class::Mirror
         } else if m.metallic <= 0.0 && m.roughness >= self.diffuse_roughness {

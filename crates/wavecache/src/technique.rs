@@ -264,6 +264,9 @@ pub struct ShadePoint {
     pub base: Vec3,
     pub material: u32,
     pub instance: u32,
+    /// Whether the triangle's winding faces `wo` (glass needs the side to know which way it
+    /// refracts; the GBuffer does not keep it, so a glass pixel is traced again).
+    pub front_face: bool,
 }
 
 impl ShadePoint {
@@ -277,6 +280,7 @@ impl ShadePoint {
             base: sp.base_color(frame),
             material: sp.material,
             instance: sp.instance,
+            front_face: sp.front_face,
         }
     }
 
@@ -296,6 +300,7 @@ impl ShadePoint {
             base: g.albedo[i],
             material: g.material[i],
             instance: g.instance[i],
+            front_face: true,
         }
     }
 }
@@ -535,8 +540,7 @@ impl<'a> Runtime<'a> {
         if self.classes.get(s.material as usize) != Some(&Class::Glossy) || !with_map(first) {
             return Vec3::ZERO;
         }
-        let m = &self.frame.scene.materials[s.material as usize];
-        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+        let Some(b) = self.bsdf(s, wo) else {
             return Vec3::ZERO;
         };
         // Each blended point's frame, visibility map, resolution and weight.
@@ -566,10 +570,15 @@ impl<'a> Runtime<'a> {
         crate::env_direct::estimate(&b, s.normal, env, sampler, visibility, n, rng)
     }
 
+    /// The BRDF at `s` seen from `wo`: the material's own model, as `pt` shades it.
+    fn bsdf(&self, s: &ShadePoint, wo: Vec3) -> Option<Bsdf> {
+        let m = &self.frame.scene.materials[s.material as usize];
+        Bsdf::for_material(self.params.brdf, m.model, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo)
+    }
+
     /// Eq. 15/16: punctual lights with shadow rays and the full BRDF. Returns (radiance, rays).
     pub fn punctual(&self, s: &ShadePoint, wo: Vec3) -> (Vec3, u64) {
-        let m = &self.frame.scene.materials[s.material as usize];
-        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+        let Some(b) = self.bsdf(s, wo) else {
             return (Vec3::ZERO, 0);
         };
         let (mut l, mut rays) = (Vec3::ZERO, 0);
@@ -601,6 +610,9 @@ impl<'a> Runtime<'a> {
     fn shade_from(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng, known: Option<&Reading<'a>>) -> (Vec3, u64) {
         let class = self.classes.get(s.material as usize).copied().unwrap_or(Class::Diffuse);
         let traced = self.traced.get(s.material as usize).copied().unwrap_or(false);
+        if let Some(ior) = self.glass_ior(s.material) {
+            return self.glass(s, wo, ior, depth, rng);
+        }
         if class == Class::Mirror && !traced {
             return self.mirror(s, wo, depth, rng);
         }
@@ -657,6 +669,13 @@ impl<'a> Runtime<'a> {
         if dir.dot(s.normal) <= 0.0 {
             return (Vec3::ZERO, 0);
         }
+        self.radiance_along(s, dir, depth, max_depth, rng)
+    }
+
+    /// Radiance arriving at `s` from unit direction `dir` (either side of the surface): the
+    /// environment on a miss, else the hit's emission plus its own shading while the chain is
+    /// shorter than `max_depth`. (radiance, rays).
+    fn radiance_along(&self, s: &ShadePoint, dir: Vec3, depth: u32, max_depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let ray = Ray::spawn(s.position, s.normal, s.error_scale, dir);
         let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
             return (direct::background(self.frame, dir), 1);
@@ -678,8 +697,7 @@ impl<'a> Runtime<'a> {
     /// sample alone made fireflies hundreds of times the pixel (`textured-glossy`'s floor).
     fn traced_sample(&self, s: &ShadePoint, wo: Vec3, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
         let frame = self.frame;
-        let m = &frame.scene.materials[s.material as usize];
-        let Some(b) = Bsdf::new(self.params.brdf, s.base, m.metallic, m.roughness, s.shading_normal, s.normal, wo) else {
+        let Some(b) = self.bsdf(s, wo) else {
             return (Vec3::ZERO, 0);
         };
         let env = frame.scene.environment.as_ref();
@@ -747,10 +765,44 @@ impl<'a> Runtime<'a> {
         if cos <= 0.0 {
             return (Vec3::ZERO, 0);
         }
-        let f0 = Vec3::splat(0.04).lerp(s.base, m.metallic.clamp(0.0, 1.0));
-        let f = bsdf::schlick(f0, cos);
+        let f = match m.model {
+            // A conductor's reflectance: base × its exact Fresnel term, as `pt`'s lobe has it.
+            glimpse_scene::MaterialModel::Conductor { eta, k } => s.base * bsdf::fresnel_conductor(cos, eta, k),
+            _ => bsdf::schlick(Vec3::splat(0.04).lerp(s.base, m.metallic.clamp(0.0, 1.0)), cos),
+        };
         let (l, rays) = self.specular_ray(s, wo, ns, depth, self.params.mirror_depth, rng);
         (f * l, rays)
+    }
+
+    /// The index of refraction of smooth glass (`MaterialModel::Dielectric`) under the PBR
+    /// integrator, `None` for any other material (the Lambert integrator shades glass as
+    /// diffuse, as `pt` does).
+    fn glass_ior(&self, material: u32) -> Option<f32> {
+        match self.frame.scene.materials.get(material as usize).map(|m| m.model) {
+            Some(glimpse_scene::MaterialModel::Dielectric { ior }) if self.params.brdf == BrdfModel::Pbr => Some(ior),
+            _ => None,
+        }
+    }
+
+    /// Smooth glass (not in the paper, whose materials are glTF's; traced as its mirrors are):
+    /// one of its two delta lobes per sample, reflection with probability F and refraction
+    /// otherwise, exactly as `pt` picks them (weights base and base/η²), followed up to
+    /// `mirror_depth` links; the surface the chain reaches is shaded from the cache.
+    fn glass(&self, s: &ShadePoint, wo: Vec3, ior: f32, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
+        let eta = if s.front_face { ior } else { 1.0 / ior };
+        let n = s.normal;
+        let cos = n.dot(wo);
+        if cos <= 0.0 {
+            return (Vec3::ZERO, 0);
+        }
+        let f = bsdf::fresnel_dielectric(cos, eta);
+        let refracted = if rng.next_f32() < f { None } else { bsdf::refract(wo, n, eta) };
+        let (dir, weight) = match refracted {
+            Some(t) => (t, s.base / (eta * eta)),
+            None => ((2.0 * cos * n - wo).normalize(), s.base),
+        };
+        let (l, rays) = self.radiance_along(s, dir, depth, self.params.mirror_depth, rng);
+        (weight * l, rays)
     }
 }
 
@@ -789,11 +841,20 @@ impl Technique for Wavecache {
         stats.rays = stats.time("shade", || {
             let spp = self.settings.spp.max(1);
             direct::shade_pixels(ctx, gbuffer, self.settings.seed, out, |i, rng: &mut Rng| {
-                let p = ShadePoint::at_pixel(gbuffer, i);
+                let mut p = ShadePoint::at_pixel(gbuffer, i);
+                let glass = rt.glass_ior(p.material).is_some();
+                if glass {
+                    // The GBuffer does not keep the side glass refracts from: trace the primary
+                    // ray again, as `pt` does.
+                    let primary = Ray::new(gbuffer.camera.position, gbuffer.view_dir[i]);
+                    if let Some(hit) = ctx.tracer.closest_hit(&primary, f32::INFINITY) {
+                        p = ShadePoint::at_hit(&ctx.frame, &SurfacePoint::from_hit(&ctx.frame, &primary, &hit));
+                    }
+                }
                 // The cache is read deterministically; only a traced lobe (sharp, or beyond the
-                // cache: `trace_far`) draws random numbers, so only it takes the pixel's `spp`
-                // samples.
-                let sharp = rt.traced.get(p.material as usize).copied().unwrap_or(false);
+                // cache: `trace_far`, or glass) draws random numbers, so only it takes the
+                // pixel's `spp` samples.
+                let sharp = glass || rt.traced.get(p.material as usize).copied().unwrap_or(false);
                 let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
                 let far = known.as_ref().is_some_and(|k| k.far);
                 if far {

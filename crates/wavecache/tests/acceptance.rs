@@ -270,7 +270,7 @@ fn check_07_fp16_storage() {
         }
     }
     // Shading from fp16 trees against the f64 products, on a real BRDF and a synthetic sky.
-    let m = MaterialBrdf { model: BrdfModel::Pbr, base: Vec3::new(1.0, 0.78, 0.34), metallic: 1.0, roughness: 0.25 };
+    let m = MaterialBrdf::pbr(Vec3::new(1.0, 0.78, 0.34), 1.0, 0.25);
     let (mut max_rel, mut max_coeff) = (0.0f64, 0.0f64);
     for (i, j) in [(2u32, 3u32), (7, 20), (15, 31)] {
         let wo = brdf::grid_direction(i, j, 16, 32);
@@ -379,7 +379,7 @@ fn check_09_furnace() {
 
     // (b) Glossy: a constant map (L = 1) ⊗ the BRDF tree = directional albedo ∫ f cos dω.
     for (metallic, roughness) in [(1.0f32, 0.3f32), (0.0, 0.5), (1.0, 0.7)] {
-        let m = MaterialBrdf { model: BrdfModel::Pbr, base: Vec3::new(0.9, 0.7, 0.4), metallic, roughness };
+        let m = MaterialBrdf::pbr(Vec3::new(0.9, 0.7, 0.4), metallic, roughness);
         let ones: Vec<[f64; 3]> = vec![[1.0; 3]; 16 * 16];
         let h = HalfCube::new(16);
         let ones: Vec<[f64; 3]> =
@@ -417,7 +417,7 @@ fn check_09_furnace() {
 
 #[test]
 fn check_10_cached_shading_equals_brute_force() {
-    let m = MaterialBrdf { model: BrdfModel::Pbr, base: Vec3::new(0.6, 0.6, 0.6), metallic: 1.0, roughness: 0.35 };
+    let m = MaterialBrdf::pbr(Vec3::new(0.6, 0.6, 0.6), 1.0, 0.35);
     let wo = Vec3::new(0.5, 0.2, 0.84).normalize().reflect(Vec3::Z) * -1.0;
     let wo = Vec3::new(wo.x, wo.y, wo.z.abs()).normalize();
     // Continuous reference: ∫ sky(ω) f cos dω by Monte Carlo (stratified uniform hemisphere).
@@ -494,7 +494,7 @@ fn check_11_brdf_omega_o_interpolation() {
     assert!(worst < 1e-5);
     assert!(w.iter().any(|x| x.1 == 0 && x.2 > 0.3) && w.iter().any(|x| x.1 == n2 - 1 && x.2 > 0.3));
     // Linearity: blending four trees then the product = blending the four products.
-    let m = MaterialBrdf { model: BrdfModel::Pbr, base: Vec3::splat(0.8), metallic: 1.0, roughness: 0.4 };
+    let m = MaterialBrdf::pbr(Vec3::splat(0.8), 1.0, 0.4);
     let mut nodes = Vec::new();
     let mut trees = Vec::new();
     let table = brdf::tabulate(&m, n1, n2, 16, 2, 0.0, &mut nodes, &mut trees, &|_| {});
@@ -893,15 +893,11 @@ fn glossy_runtime_matches_direct_integration_at_a_cache_point() {
         base: scene.materials[gold as usize].base_color,
         material: gold,
         instance: inst as u32,
+        front_face: true,
     };
     let shaded = rt.cached(&s, wo);
     let m = &scene.materials[gold as usize];
-    let b = brdf::brdf_image(
-        &MaterialBrdf { model: BrdfModel::Pbr, base: m.base_color, metallic: m.metallic, roughness: m.roughness },
-        wo_grid,
-        p.brdf_res,
-        p.brdf_strata,
-    );
+    let b = brdf::brdf_image(&MaterialBrdf::pbr(m.base_color, m.metallic, m.roughness), wo_grid, p.brdf_res, p.brdf_strata);
     let radiance = haar::reconstruct(&cache.radiance_nodes, cache.radiance_trees[pt.payload as usize]);
     let direct = pixel_dot(&upsample(&radiance, mc.map_res, p.brdf_res), &b).map(|v| v / (p.brdf_res * p.brdf_res) as f64);
     let e = (0..3).map(|c| rel(shaded[c] as f64, direct[c])).fold(0.0, f64::max);
