@@ -6,6 +6,7 @@ pub mod bsdf;
 pub mod context;
 pub mod direct;
 pub mod env;
+pub mod focus;
 pub mod gi;
 pub mod lights;
 pub mod metrics;

@@ -32,10 +32,13 @@ pub const FORMAT: CacheFormat = CacheFormat { magic: *b"VOXARRAY", version: 1 };
 const READ_LIMIT: u64 = 8 << 30;
 
 /// The cache file for `triangles` built with `p` in `dir`.
-pub fn path_for(dir: &Path, triangles: &[[Vec3; 3]], p: &VoxArrayParams) -> PathBuf {
+pub fn path_for(dir: &Path, triangles: &[[Vec3; 3]], focus: Option<glimpse_core::Aabb>, p: &VoxArrayParams) -> PathBuf {
     let mut h = xxhash_rust::xxh3::Xxh3::new();
     h.update(bytemuck::cast_slice(triangles));
     h.update(format!("{p:?}").as_bytes());
+    if let Some(f) = focus {
+        h.update(bytemuck::bytes_of(&f));
+    }
     dir.join("voxarray").join(format!("{:016x}.bin", h.digest()))
 }
 

@@ -514,7 +514,7 @@ pub fn bench_rays(ctx: &GpuContext, array: &VoxArray, rays: &[(Ray, f32)]) -> Re
 pub fn print_bench_row(ctx: &GpuContext, frame: &SceneFrame, rays: &[(Ray, f32)], exact_kernel_ms: f64) -> Result<(), GpuVoxArrayError> {
     let p = crate::VoxArrayParams::default();
     let triangles = frame.world_triangles();
-    let path = glimpse_render::structure_cache_dir().map(|dir| crate::disk_cache::path_for(&dir, &triangles, &p));
+    let path = glimpse_render::structure_cache_dir().map(|dir| crate::disk_cache::path_for(&dir, &triangles, None, &p));
     let t = std::time::Instant::now();
     let (array, how) = match path.as_ref().and_then(|path| crate::disk_cache::load(path, &p)) {
         Some(a) => (a, "loaded from the disk cache"),

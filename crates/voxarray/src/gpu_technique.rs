@@ -54,7 +54,9 @@ pub struct GpuLightsVoxArray {
 impl GpuLightsVoxArray {
     pub fn new(gpu: Arc<GpuContext>, scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         glimpse_render::require(scene, "lights-voxarray", Need::PunctualLights)?;
-        let cpu = LightsVoxArray::new(scene, settings, params)?;
+        let mut cpu = LightsVoxArray::new(scene, settings, params)?;
+        // The scene's cube: this port has no exact shading for pixels outside a focus.
+        cpu.focus = false;
         Ok(Self { gpu, cpu, structure: None, last_times: Vec::new() })
     }
 }

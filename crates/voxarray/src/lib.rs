@@ -335,6 +335,22 @@ impl VoxArray {
         }
     }
 
+    /// [`Self::from_triangles`] in the cube around `focus` (ours, [`glimpse_render::focus`]):
+    /// queries inside the focus only, so the triangles that cannot reach it are left out.
+    /// `None`: the paper's cube around the whole scene.
+    pub fn from_triangles_in(triangles: &[[Vec3; 3]], focus: Option<glimpse_core::Aabb>, p: &VoxArrayParams) -> Self {
+        let Some(focus) = focus else {
+            return Self::from_triangles(triangles, p);
+        };
+        let grid = Grid::around_box(focus, p.resolution);
+        let near: Vec<[Vec3; 3]> = triangles.iter().filter(|t| grid.may_touch(t)).copied().collect();
+        match p.resolution {
+            32 => VoxArray::R32(Array::build_in(&near, grid, p)),
+            64 => VoxArray::R64(Array::build_in(&near, grid, p)),
+            _ => VoxArray::R128(Array::build_in(&near, grid, p)),
+        }
+    }
+
     pub fn occluded_segment(&self, start: Vec3, end: Vec3) -> bool {
         each!(self, a => a.occluded_segment(start, end))
     }

@@ -42,6 +42,7 @@ use crate::shade8::Tile;
 use crate::{Array, VoxArray, VoxArrayParams, extent8};
 use glimpse_core::{Image, Ray, Vec3};
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::focus::Focus;
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::{Scene, WorldLight};
 use glimpse_trace::{GBuffer, Visibility};
@@ -160,6 +161,12 @@ pub struct LightsVoxArray {
     pub simd: bool,
     /// Confirm each occluded answer with an exact shadow ray (ours; see [`REFINE_BELOW_LIGHTS`]).
     pub refine: bool,
+    /// `focus=auto` (ours; `profile=paper`: `scene`): a static scene's array covers the part of
+    /// the scene the first frame's shadow rays can meet ([`Focus`]) where that is under half
+    /// the scene, instead of the whole scene; pixels outside it are shaded with exact rays.
+    pub focus: bool,
+    /// The focus the static array was built in (`None`: the whole scene).
+    pub focus_box: Option<Focus>,
 }
 
 /// `refine` (ours): whether the array's "occluded" answers are confirmed by an exact shadow ray.
@@ -203,7 +210,7 @@ impl LightsVoxArray {
             id: "lights-voxarray",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, cluster (ours), refine (ours: auto, exact, none), type_resolution, lights, epsilon, disk_cache, tiled, simd",
+            description: "every light at every pixel through the 2D array of voxelizations (Wang et al. 2017); resolution, directions, bias, bias_light, normal_offset, skip_start_run, compress, dictionary, steps, cluster (ours), refine (ours: auto, exact, none), focus (ours: auto, scene), type_resolution, lights, epsilon, disk_cache, tiled, simd",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-voxarray", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsVoxArray::new(scene, settings, params)?))
@@ -237,8 +244,16 @@ impl LightsVoxArray {
             tiled: params.bool("tiled", true)?,
             simd: params.bool("simd", true)?,
             refine,
+            focus: read_focus(params)?,
+            focus_box: None,
         })
     }
+}
+
+/// Reads `focus` (`auto`, `scene`; `profile=paper`: `scene`).
+pub fn read_focus(params: &Params) -> Result<bool, RenderError> {
+    let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+    Ok(params.choice("focus", if paper { "scene" } else { "auto" }, &["auto", "scene"])? == "auto")
 }
 
 /// Whether the scene's geometry is the same at every time.
@@ -282,16 +297,19 @@ impl Technique for LightsVoxArray {
             }
         } else if self.structure.is_none() {
             let triangles = ctx.frame.world_triangles();
+            let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
+            self.focus_box = if self.focus { stats.time("focus", || Focus::for_shadows(ctx, lights)) } else { None };
+            let focus = self.focus_box.map(|f| f.bounds);
             // A static scene's compressed array is cached on disk (see `disk_cache`).
             let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::structure_cache_dir() } else { None };
-            let path = cache.map(|dir| disk_cache::path_for(&dir, &triangles, &self.params));
+            let path = cache.map(|dir| disk_cache::path_for(&dir, &triangles, focus, &self.params));
             let loaded = path.as_ref().and_then(|path| stats.time("load cached array", || disk_cache::load(path, &self.params)));
             let a = match loaded {
                 Some(a) => a,
                 None => {
                     // Alg. 1 streamed into Alg. 2 (one stage: the slabs are voxelized as they
                     // are compressed, never held whole).
-                    let a = stats.time("alg1+2 voxelize and compress", || VoxArray::from_triangles(&triangles, &self.params));
+                    let a = stats.time("alg1+2 voxelize and compress", || VoxArray::from_triangles_in(&triangles, focus, &self.params));
                     if let Some(path) = &path
                         && let Err(e) = stats.time("store cached array", || disk_cache::store(path, &a))
                     {
@@ -306,6 +324,11 @@ impl Technique for LightsVoxArray {
         if let Some(Structure::Static(a) | Structure::Deforming(a)) = &self.structure {
             // The grid's cell, in the stats so a report can say what resolution bounds the error.
             stats.metrics.push(("cell_m".to_owned(), a.grid().cell_size_world() as f64));
+        }
+        if let Some(f) = self.focus_box {
+            // The focus's share of the scene's diagonal: what it did to the cell.
+            let share = f.bounds.extent().length() / ctx.frame.bounds.extent().length();
+            stats.metrics.push(("focus_share".to_owned(), share as f64));
         }
         Ok(stats)
     }
@@ -332,11 +355,27 @@ impl Technique for LightsVoxArray {
             Some(VoxArray::R128(a)) => shade_tiled(a, ctx, gbuffer, lights, out, &how),
             None => shade_samples(vis, ctx, gbuffer, lights, out, &how),
         });
+        let focus = self.focus_box.filter(|_| matches!(vis, Structure::Static(_)));
+        let mut outside_pct = None;
+        if let Some(f) = focus {
+            // Pixels outside the focus (between its probes, or seen by a later camera): their
+            // rays may leave the array's cube, so they are shaded as `lights-exact` shades them.
+            let outside = AtomicU64::new(0);
+            stats.rays += stats.time("outside the focus", || shade_outside(&f, ctx, gbuffer, lights, out, &outside));
+            outside_pct = Some(100.0 * outside.into_inner() as f64 / gbuffer.len().max(1) as f64);
+        }
+        let in_focus = |p: Vec3| focus.is_none_or(|f| f.contains(p));
         if self.epsilon {
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
+                if !in_focus(s.position) {
+                    return ctx.tracer.occluded(&ps.shadow, ps.t_max);
+                }
                 vis.occluded_from_surface(ps, s.normal) && (!self.refine || ctx.tracer.occluded(&ps.shadow, ps.t_max))
             });
             stats.metrics = e.to_metrics();
+        }
+        if let Some(pct) = outside_pct {
+            stats.metrics.push(("outside_focus_pct".to_owned(), pct));
         }
         if self.refine {
             // The share of the shadow decisions that paid for an exact ray.
@@ -345,6 +384,24 @@ impl Technique for LightsVoxArray {
         }
         Ok(stats)
     }
+}
+
+/// `lights-exact`'s shading of the pixels outside `focus` (overwriting what the array gave
+/// them); returns the shadow rays traced and counts the pixels in `outside`.
+fn shade_outside(focus: &Focus, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, outside: &AtomicU64) -> u64 {
+    out.pixels
+        .par_iter_mut()
+        .enumerate()
+        .map(|(i, px)| {
+            let Some(s) = Shading::from_gbuffer(gbuffer, i).filter(|s| !focus.contains(s.position)) else {
+                return 0;
+            };
+            outside.fetch_add(1, Ordering::Relaxed);
+            let (e, rays) = direct::punctual_irradiance(lights, &ctx.tracer, &s);
+            *px = gbuffer.emission[i] + s.albedo / PI * e;
+            rays
+        })
+        .sum()
 }
 
 /// How a frame is shaded: AVX2 or scalar, and with `refine` the exact tracer that confirms

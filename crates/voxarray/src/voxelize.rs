@@ -42,6 +42,21 @@ impl Grid {
         Grid { resolution, center, scale: resolution as f32 / side }
     }
 
+    /// The cube around the bounding sphere of `bounds` (a focus: [`glimpse_render::focus`]).
+    pub fn around_box(bounds: glimpse_core::Aabb, resolution: u32) -> Grid {
+        let side = (bounds.extent().length() * 1.001).max(1e-3);
+        Grid { resolution, center: bounds.center(), scale: resolution as f32 / side }
+    }
+
+    /// Whether a triangle can set a voxel a query inside the grid's sphere reads: its box
+    /// overlaps the sphere (grown by two cells).
+    pub fn may_touch(&self, t: &[Vec3; 3]) -> bool {
+        let (lo, hi) = (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2]));
+        let nearest = self.center.clamp(lo, hi);
+        let reach = (0.5 * self.resolution as f32 + 2.0) / self.scale;
+        (nearest - self.center).length_squared() <= reach * reach
+    }
+
     pub fn cell_size_world(&self) -> f32 {
         1.0 / self.scale
     }

@@ -50,7 +50,7 @@ fn a_stored_array_loads_back_with_the_same_answers() {
     let built = VoxArray::from_triangles(&tris, &p);
     let tmp = dir("roundtrip");
     let dir = tmp.path();
-    let path = disk_cache::path_for(dir, &tris, &p);
+    let path = disk_cache::path_for(dir, &tris, None, &p);
     assert!(disk_cache::store(&path, &built).unwrap(), "a compressed array is stored");
     let loaded = disk_cache::load(&path, &p).expect("the stored array loads");
     let (a, b) = (answers(&built), answers(&loaded));
@@ -65,8 +65,8 @@ fn a_stored_array_loads_back_with_the_same_answers() {
     // Other triangles or other parameters are another file.
     let mut moved = tris.clone();
     moved[0][0].x += 1e-3;
-    assert_ne!(disk_cache::path_for(dir, &moved, &p), path);
-    assert_ne!(disk_cache::path_for(dir, &tris, &VoxArrayParams { directions: 10, ..p }), path);
+    assert_ne!(disk_cache::path_for(dir, &moved, None, &p), path);
+    assert_ne!(disk_cache::path_for(dir, &tris, None, &VoxArrayParams { directions: 10, ..p }), path);
     // A plain array is not cached (2 GiB at the defaults).
     let plain = VoxArray::from_triangles(&tris, &VoxArrayParams { compress: None, ..p });
     assert!(!disk_cache::store(&dir.join("plain.bin"), &plain).unwrap());
