@@ -1,119 +1,109 @@
-//! Where a frame's shadow rays can be blocked: the part of the scene a grid-based visibility
-//! structure should cover, so its cells are sized by what the camera sees rather than by the
-//! scene's bounds (a 100 m ground under a 1 m object made the voxel array's cells a third of a
-//! metre and the object's shadow vanished under the start offset).
+//! Where a shadow ray can be blocked: the part of the scene a grid-based visibility structure
+//! must cover, so its cells are sized by the occluders rather than by the scene's bounds (a
+//! 100 km ground under a 600 m sphere made the voxel array's cells 1.1 km wide, and the start
+//! offset stepped over the sphere: its shadow vanished).
 //!
-//! A shadow ray from a surface the camera sees to a point or spot light stays inside the box of
-//! those surfaces and the light (a box is convex); toward a directional light it leaves the scene
-//! through its bounds, so the box is stretched toward that light up to them. Surfaces the camera
-//! sees are sampled by a coarse grid of primary rays, so a pixel between the samples may lie
-//! outside the box, and so do the farthest 1 % along each axis (a ground seen to the horizon):
-//! callers trace such pixels exactly ([`Focus::contains`]).
+//! A triangle whose plane has the whole scene on one side (a ground, a room's single-layer wall,
+//! the outside of a closed box) cannot block a segment between two points of the scene: the
+//! segment meets that plane at most at an end. Nor a ray toward a point light on the same side,
+//! or toward a directional light the side faces. Every other triangle may block something; the
+//! focus is their box. A structure built in it answers a segment from the part of it inside
+//! (the part outside crosses no occluder).
 
-use crate::FrameContext;
 use glimpse_core::{Aabb, Vec3};
-use glimpse_scene::{LightKind, WorldLight};
+use glimpse_scene::{LightKind, SceneFrame, WorldLight};
 
-/// Primary rays per side of the grid that samples what the camera sees.
-const PROBES: u32 = 64;
-/// Share of the probes' hits left out of the seen surfaces' box at each end of each axis.
-const TRIM: f32 = 0.01;
-/// The seen surfaces' box grows by this share of its diagonal (the surfaces between the probes).
-const MARGIN: f32 = 0.05;
-/// A focus is used only when its diagonal is under this share of the scene's: in a room the
-/// camera sees most of, the scene is the focus (and the structure is the paper's).
+/// A focus is used only when its diagonal is under this share of the scene's: where the
+/// occluders fill the scene, the structure is the paper's.
 const WORTHWHILE: f32 = 0.5;
+/// Most triangles tested as supporting planes (the largest: grounds and walls are).
+const CANDIDATES: usize = 64;
+/// A triangle smaller than this share of the largest one's area is not tested.
+const SMALL: f32 = 0.01;
 
-/// The box shadow rays of this frame's visible surfaces toward `lights` stay in.
+/// The box of the triangles that may block a shadow ray.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Focus {
     pub bounds: Aabb,
 }
 
 impl Focus {
-    /// The focus of `ctx`'s camera for `lights`, or `None` where it would not be much smaller
-    /// than the scene (or the camera sees nothing).
-    pub fn for_shadows(ctx: &FrameContext, lights: &[WorldLight]) -> Option<Focus> {
-        let scene = ctx.frame.bounds;
-        let seen = seen_surfaces(ctx)?;
-        let grown = Aabb::new(seen.min - seen.extent() * MARGIN, seen.max + seen.extent() * MARGIN);
-        let mut b = grown;
-        for light in lights {
-            b = match light.kind {
-                LightKind::Point | LightKind::Spot { .. } => b.grow(light.position),
-                LightKind::Directional => corners(&grown).iter().fold(b, |b, &c| b.grow(to_bounds(&scene, c, -light.direction))),
-            };
-        }
-        let bounds = Aabb::new(b.min.max(scene.min), b.max.min(scene.max));
-        (bounds.extent().length() < WORTHWHILE * scene.extent().length()).then_some(Focus { bounds })
-    }
-
-    /// Whether `p` lies in the focus (a shadow ray from it may be answered by the structure).
-    pub fn contains(&self, p: Vec3) -> bool {
-        self.bounds.contains(p)
+    /// The occluders' box of `frame` for shadow rays toward `lights`, or `None` where it is not
+    /// much smaller than the scene (or nothing can occlude).
+    pub fn occluders(frame: &SceneFrame, lights: &[WorldLight]) -> Option<Focus> {
+        let triangles = frame.world_triangles();
+        let scene = frame.bounds;
+        let diagonal = scene.extent().length();
+        let tolerance = 1e-4 * diagonal;
+        let supporting = supporting_triangles(&triangles, lights, tolerance);
+        let bounds = triangles
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| supporting.binary_search(i).is_err())
+            .fold(Aabb::EMPTY, |b, (_, t)| b.grow(t[0]).grow(t[1]).grow(t[2]));
+        (!bounds.is_empty() && bounds.extent().length() < WORTHWHILE * diagonal).then_some(Focus { bounds })
     }
 }
 
-/// The box of most of the surfaces a `PROBES` × `PROBES` grid of primary rays hits: per axis,
-/// from the `TRIM` to the 1 − `TRIM` quantile of the hits, so a ground seen to the horizon (a
-/// few pixels of it kilometres away) does not set the box's size.
-fn seen_surfaces(ctx: &FrameContext) -> Option<Aabb> {
-    let (w, h) = (ctx.width.max(1), ctx.height.max(1));
-    let mut hits = Vec::with_capacity((PROBES * PROBES) as usize);
-    for y in 0..PROBES {
-        for x in 0..PROBES {
-            let (px, py) = ((x as f32 + 0.5) / PROBES as f32 * w as f32, (y as f32 + 0.5) / PROBES as f32 * h as f32);
-            let ray = ctx.camera.ray(px, py, w, h);
-            if let Some(hit) = ctx.tracer.closest_hit(&ray, f32::INFINITY) {
-                hits.push(ray.at(hit.t));
+/// The indices (sorted) of the large triangles whose plane has every vertex of the scene, every
+/// point and spot light on one side (within `tolerance`) and faces every directional light.
+fn supporting_triangles(triangles: &[[Vec3; 3]], lights: &[WorldLight], tolerance: f32) -> Vec<usize> {
+    let area = |t: &[Vec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
+    let largest = triangles.iter().map(area).fold(0.0f32, f32::max);
+    let mut candidates: Vec<usize> = (0..triangles.len()).filter(|&i| area(&triangles[i]) >= SMALL * largest).collect();
+    candidates.sort_by(|&a, &b| area(&triangles[b]).total_cmp(&area(&triangles[a])));
+    candidates.truncate(CANDIDATES);
+    let mut out: Vec<usize> = candidates
+        .into_iter()
+        .filter(|&i| {
+            let t = &triangles[i];
+            let n = (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero();
+            if n == Vec3::ZERO {
+                return false;
             }
-        }
-    }
-    if hits.is_empty() {
-        return None;
-    }
-    let (mut lo, mut hi) = (Vec3::ZERO, Vec3::ZERO);
-    let mut axis = Vec::with_capacity(hits.len());
-    for c in 0..3 {
-        axis.clear();
-        axis.extend(hits.iter().map(|p| p[c]));
-        axis.sort_unstable_by(f32::total_cmp);
-        let at = |q: f32| axis[((axis.len() - 1) as f32 * q).round() as usize];
-        (lo[c], hi[c]) = (at(TRIM), at(1.0 - TRIM));
-    }
-    Some(Aabb::new(lo, hi))
-}
-
-fn corners(b: &Aabb) -> [Vec3; 8] {
-    std::array::from_fn(|i| {
-        Vec3::new(
-            if i & 1 == 0 { b.min.x } else { b.max.x },
-            if i & 2 == 0 { b.min.y } else { b.max.y },
-            if i & 4 == 0 { b.min.z } else { b.max.z },
-        )
-    })
-}
-
-/// Where the ray from `p` (inside `bounds` or not) along unit `dir` leaves `bounds`: `p` itself
-/// if it never enters beyond `p`.
-fn to_bounds(bounds: &Aabb, p: Vec3, dir: Vec3) -> Vec3 {
-    let inv = Vec3::ONE / dir;
-    match bounds.intersect(p, inv, 0.0, f32::INFINITY) {
-        Some((_, t_exit)) if t_exit.is_finite() => p + dir * t_exit,
-        _ => p,
-    }
+            // The side the scene lies on: +1 or −1 (0 while every point seen is on the plane).
+            let mut side = 0.0f32;
+            let mut one_side = |p: Vec3| {
+                let d = n.dot(p - t[0]);
+                if d.abs() <= tolerance {
+                    return true;
+                }
+                if side == 0.0 {
+                    side = d.signum();
+                }
+                d.signum() == side
+            };
+            let points = triangles.iter().flatten().all(|&p| one_side(p));
+            let point_lights = lights.iter().filter(|l| l.kind != LightKind::Directional).all(|l| one_side(l.position));
+            // A directional light's rays leave toward −direction: not through the plane's far side.
+            let suns = lights.iter().filter(|l| l.kind == LightKind::Directional).all(|l| side * n.dot(-l.direction) >= 0.0);
+            points && point_lights && suns
+        })
+        .collect();
+    out.sort_unstable();
+    out
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    fn quad(y: f32, half: f32) -> [[Vec3; 3]; 2] {
+        let (a, b, c, d) = (Vec3::new(-half, y, -half), Vec3::new(half, y, -half), Vec3::new(half, y, half), Vec3::new(-half, y, half));
+        [[a, c, b], [a, d, c]]
+    }
+
     #[test]
-    fn a_ray_leaves_the_bounds_where_it_should() {
-        let b = Aabb::new(Vec3::splat(-1.0), Vec3::splat(1.0));
-        let exit = to_bounds(&b, Vec3::ZERO, Vec3::new(0.0, 1.0, 0.0));
-        assert!((exit - Vec3::new(0.0, 1.0, 0.0)).length() < 1e-6, "{exit}");
-        let outside = Vec3::new(0.0, 5.0, 0.0);
-        assert_eq!(to_bounds(&b, outside, Vec3::new(0.0, 1.0, 0.0)), outside);
+    fn a_ground_under_everything_supports_and_a_shelf_between_does_not() {
+        let mut tris: Vec<[Vec3; 3]> = quad(0.0, 100.0).to_vec();
+        tris.extend(quad(2.0, 1.0)); // a shelf: points above and below it
+        tris.push([Vec3::new(0.0, 3.0, 0.0), Vec3::new(0.5, 3.0, 0.0), Vec3::new(0.0, 3.5, 0.0)]);
+        let sun = |dir: Vec3| WorldLight { kind: LightKind::Directional, intensity: Vec3::ONE, position: Vec3::ZERO, direction: dir };
+        assert_eq!(supporting_triangles(&tris, &[sun(Vec3::new(0.3, -1.0, 0.0).normalize())], 1e-3), [0, 1]);
+        // A sun under the horizon: the ground blocks it.
+        assert!(supporting_triangles(&tris, &[sun(Vec3::new(0.3, 1.0, 0.0).normalize())], 1e-3).is_empty());
+        // A point light under the ground: likewise.
+        let under = WorldLight { kind: LightKind::Point, intensity: Vec3::ONE, position: Vec3::new(0.0, -1.0, 0.0), direction: Vec3::Y };
+        assert!(supporting_triangles(&tris, &[under], 1e-3).is_empty());
     }
 }

@@ -188,5 +188,6 @@ fn parse<R: Row>(payload: &[u8], p: &VoxArrayParams) -> Result<Array<R>, String>
         skip_start_run,
         build_ms: 0.0,
         compression: Some(report),
+        clip_to_sphere: false,
     })
 }

@@ -100,6 +100,7 @@ pub fn rebuild_from_fragments<R: Row>(triangles: &[[Vec3; 3]], grid: Grid, p: &V
         skip_start_run: p.skip_start_run,
         build_ms,
         compression: None,
+        clip_to_sphere: false,
     }
 }
 

@@ -55,7 +55,8 @@ impl GpuLightsVoxArray {
     pub fn new(gpu: Arc<GpuContext>, scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         glimpse_render::require(scene, "lights-voxarray", Need::PunctualLights)?;
         let mut cpu = LightsVoxArray::new(scene, settings, params)?;
-        // The scene's cube: this port has no exact shading for pixels outside a focus.
+        // The scene's cube: a focused array (segments cut to its sphere) is not exercised on
+        // the GPU yet.
         cpu.focus = false;
         Ok(Self { gpu, cpu, structure: None, last_times: Vec::new() })
     }

@@ -165,6 +165,10 @@ pub struct Array<R: Row> {
     pub skip_start_run: bool,
     pub build_ms: f64,
     pub compression: Option<CompressionReport>,
+    /// Segments are cut to the grid's inscribed sphere before the query (a focused array,
+    /// `focus=auto`: the occluders lie inside, the rest of a segment crosses none). Not stored
+    /// in the disk cache: the technique sets it.
+    pub clip_to_sphere: bool,
 }
 
 impl<R: Row> Array<R> {
@@ -206,6 +210,7 @@ impl<R: Row> Array<R> {
             skip_start_run: p.skip_start_run,
             build_ms,
             compression,
+            clip_to_sphere: false,
         }
     }
 
@@ -257,7 +262,30 @@ impl<R: Row> Array<R> {
     pub fn surface_segment(&self, ps: &PunctualSample, normal: Vec3) -> (Vec3, Vec3) {
         let (a, b) = self.segment(&ps.shadow, ps.t_max);
         let n = if normal.dot(ps.shadow.dir) < 0.0 { -normal } else { normal };
-        (a + n * (self.normal_offset_cells / self.grid.scale), b)
+        self.clipped(a + n * (self.normal_offset_cells / self.grid.scale), b)
+    }
+
+    /// `a → b`, cut to the grid's inscribed sphere where `clip_to_sphere`; a segment that misses
+    /// it becomes one outside the grid (which no query finds occluded).
+    #[inline]
+    fn clipped(&self, a: Vec3, b: Vec3) -> (Vec3, Vec3) {
+        if !self.clip_to_sphere {
+            return (a, b);
+        }
+        let r = 0.4995 * self.grid.resolution as f32 / self.grid.scale;
+        let (c, d) = (self.grid.center, b - a);
+        let (dd, f) = (d.length_squared(), a - c);
+        let (half_b, cc) = (f.dot(d), f.length_squared() - r * r);
+        let disc = half_b * half_b - dd * cc;
+        if dd <= 0.0 || disc < 0.0 {
+            return if cc <= 0.0 { (a, b) } else { (c + Vec3::splat(4.0 * r), c + Vec3::splat(4.0 * r)) };
+        }
+        let root = disc.sqrt();
+        let (t0, t1) = (((-half_b - root) / dd).max(0.0), ((-half_b + root) / dd).min(1.0));
+        if t0 > t1 {
+            return (c + Vec3::splat(4.0 * r), c + Vec3::splat(4.0 * r));
+        }
+        (a + d * t0, a + d * t1)
     }
 
     /// Bytes held (rows or dictionary + packed indices, plus the rotation table).
@@ -288,6 +316,7 @@ impl<R: Row> Visibility for Array<R> {
     /// occupied run at the start ignored: the trait gives no normal to offset the start with.
     fn occluded(&self, ray: &Ray, t_max: f32) -> bool {
         let (a, b) = self.segment(ray, t_max);
+        let (a, b) = self.clipped(a, b);
         if !self.skip_start_run {
             return self.occluded_segment(a, b);
         }
@@ -374,6 +403,11 @@ impl VoxArray {
 
     pub fn uncompressed_bytes(&self) -> u64 {
         each!(self, a => a.uncompressed_bytes())
+    }
+
+    /// [`Array::clip_to_sphere`].
+    pub fn set_clip_to_sphere(&mut self, on: bool) {
+        each!(self, a => a.clip_to_sphere = on)
     }
 
     pub fn normal_offset_cells(&self) -> f32 {

@@ -161,9 +161,9 @@ pub struct LightsVoxArray {
     pub simd: bool,
     /// Confirm each occluded answer with an exact shadow ray (ours; see [`REFINE_BELOW_LIGHTS`]).
     pub refine: bool,
-    /// `focus=auto` (ours; `profile=paper`: `scene`): a static scene's array covers the part of
-    /// the scene the first frame's shadow rays can meet ([`Focus`]) where that is under half
-    /// the scene, instead of the whole scene; pixels outside it are shaded with exact rays.
+    /// `focus=auto` (ours; `profile=paper`: `scene`): a static scene's array covers the
+    /// triangles that can block a shadow ray ([`Focus`]) where their box is under half the
+    /// scene, instead of the whole scene, and queries the part of each segment inside it.
     pub focus: bool,
     /// The focus the static array was built in (`None`: the whole scene).
     pub focus_box: Option<Focus>,
@@ -298,7 +298,7 @@ impl Technique for LightsVoxArray {
         } else if self.structure.is_none() {
             let triangles = ctx.frame.world_triangles();
             let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-            self.focus_box = if self.focus { stats.time("focus", || Focus::for_shadows(ctx, lights)) } else { None };
+            self.focus_box = if self.focus { stats.time("focus", || Focus::occluders(&ctx.frame, lights)) } else { None };
             let focus = self.focus_box.map(|f| f.bounds);
             // A static scene's compressed array is cached on disk (see `disk_cache`).
             let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::structure_cache_dir() } else { None };
@@ -318,6 +318,8 @@ impl Technique for LightsVoxArray {
                     a
                 }
             };
+            let mut a = a;
+            a.set_clip_to_sphere(focus.is_some());
             self.structure = Some(Structure::Static(a));
         }
         stats.memory_bytes = self.structure.as_ref().map_or(0, |s| s.memory_bytes());
@@ -342,7 +344,8 @@ impl Technique for LightsVoxArray {
         if (out.width, out.height) != (gbuffer.width, gbuffer.height) {
             return Err(RenderError::Unsupported { technique: "lights-voxarray".into(), message: "image and GBuffer sizes differ".into() });
         }
-        let simd = self.simd && extent8::avx2_available();
+        // A focused array clips its segments to its sphere, which the AVX2 path does not.
+        let simd = self.simd && self.focus_box.is_none() && extent8::avx2_available();
         let tiled = match vis {
             Structure::Static(a) | Structure::Deforming(a) if self.tiled => Some(a),
             _ => None,
@@ -355,27 +358,11 @@ impl Technique for LightsVoxArray {
             Some(VoxArray::R128(a)) => shade_tiled(a, ctx, gbuffer, lights, out, &how),
             None => shade_samples(vis, ctx, gbuffer, lights, out, &how),
         });
-        let focus = self.focus_box.filter(|_| matches!(vis, Structure::Static(_)));
-        let mut outside_pct = None;
-        if let Some(f) = focus {
-            // Pixels outside the focus (between its probes, or seen by a later camera): their
-            // rays may leave the array's cube, so they are shaded as `lights-exact` shades them.
-            let outside = AtomicU64::new(0);
-            stats.rays += stats.time("outside the focus", || shade_outside(&f, ctx, gbuffer, lights, out, &outside));
-            outside_pct = Some(100.0 * outside.into_inner() as f64 / gbuffer.len().max(1) as f64);
-        }
-        let in_focus = |p: Vec3| focus.is_none_or(|f| f.contains(p));
         if self.epsilon {
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
-                if !in_focus(s.position) {
-                    return ctx.tracer.occluded(&ps.shadow, ps.t_max);
-                }
                 vis.occluded_from_surface(ps, s.normal) && (!self.refine || ctx.tracer.occluded(&ps.shadow, ps.t_max))
             });
             stats.metrics = e.to_metrics();
-        }
-        if let Some(pct) = outside_pct {
-            stats.metrics.push(("outside_focus_pct".to_owned(), pct));
         }
         if self.refine {
             // The share of the shadow decisions that paid for an exact ray.
@@ -384,24 +371,6 @@ impl Technique for LightsVoxArray {
         }
         Ok(stats)
     }
-}
-
-/// `lights-exact`'s shading of the pixels outside `focus` (overwriting what the array gave
-/// them); returns the shadow rays traced and counts the pixels in `outside`.
-fn shade_outside(focus: &Focus, ctx: &FrameContext, gbuffer: &GBuffer, lights: &[WorldLight], out: &mut Image, outside: &AtomicU64) -> u64 {
-    out.pixels
-        .par_iter_mut()
-        .enumerate()
-        .map(|(i, px)| {
-            let Some(s) = Shading::from_gbuffer(gbuffer, i).filter(|s| !focus.contains(s.position)) else {
-                return 0;
-            };
-            outside.fetch_add(1, Ordering::Relaxed);
-            let (e, rays) = direct::punctual_irradiance(lights, &ctx.tracer, &s);
-            *px = gbuffer.emission[i] + s.albedo / PI * e;
-            rays
-        })
-        .sum()
 }
 
 /// How a frame is shaded: AVX2 or scalar, and with `refine` the exact tracer that confirms
