@@ -81,12 +81,7 @@ fn small_params() -> WavecacheParams {
     }
 }
 
-fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> glimpse_core::Image {
-    t.prepare(ctx).expect("prepare");
-    let mut img = ctx.image();
-    t.render(ctx, g, &mut img).expect("render");
-    img
-}
+use common::render;
 
 fn mse(a: &glimpse_core::Image, b: &glimpse_core::Image) -> f64 {
     a.pixels.iter().zip(&b.pixels).map(|(x, y)| ((*x - *y) * (*x - *y)).element_sum() as f64 / 3.0).sum::<f64>() / a.pixels.len() as f64

@@ -9,17 +9,12 @@ mod common;
 
 use glimpse_core::{Image, Vec3, luminance};
 use glimpse_render::pt::PathTracer;
-use glimpse_render::{FrameContext, Params, Settings, Technique};
+use glimpse_render::{FrameContext, Params, Settings};
 use glimpse_scene::{Environment, Scene};
 use glimpse_trace::GBuffer;
 use glimpse_wavecache::{EnvDirect, Wavecache, WavecacheParams};
 
-fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> Image {
-    t.prepare(ctx).expect("prepare");
-    let mut img = ctx.image();
-    t.render(ctx, g, &mut img).expect("render");
-    img
-}
+use common::render;
 
 /// A studio: a dim grey surround and one softbox of 8 × 6 texels of a 512 × 256 map (about
 /// 5.6° × 4.2°, under a texel of a 32² radiance map), high in front of the sphere, to the camera's right.
@@ -51,17 +46,7 @@ fn small_cached(scene: &Scene) -> (f32, bool) {
 }
 
 fn params() -> WavecacheParams {
-    WavecacheParams {
-        brdf_grid_u1: 16,
-        brdf_grid_u2: 64,
-        texel_samples: 4,
-        irradiance_samples: 128,
-        diffuse_points: 800,
-        glossy_points: 600,
-        disk_cache: false,
-        progress: false,
-        ..WavecacheParams::default()
-    }
+    common::small_params()
 }
 
 #[test]

@@ -10,17 +10,11 @@ mod common;
 
 use glimpse_core::{Image, Vec3, luminance};
 use glimpse_render::pt::PathTracer;
-use glimpse_render::{FrameContext, Params, Settings, Technique};
+use glimpse_render::{FrameContext, Params, Settings};
 use glimpse_scene::{Environment, Scene};
-use glimpse_trace::GBuffer;
 use glimpse_wavecache::{Class, Wavecache, WavecacheParams};
 
-fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> Image {
-    t.prepare(ctx).expect("prepare");
-    let mut img = ctx.image();
-    t.render(ctx, g, &mut img).expect("render");
-    img
-}
+use common::render;
 
 /// Four spheres of the four models on a grey floor before a wall, under a sky and a warm panel.
 fn scene() -> Scene {
@@ -41,17 +35,7 @@ fn scene() -> Scene {
 }
 
 fn params() -> WavecacheParams {
-    WavecacheParams {
-        brdf_grid_u1: 16,
-        brdf_grid_u2: 64,
-        texel_samples: 4,
-        irradiance_samples: 128,
-        diffuse_points: 800,
-        glossy_points: 400,
-        disk_cache: false,
-        progress: false,
-        ..WavecacheParams::default()
-    }
+    WavecacheParams { glossy_points: 400, ..common::small_params() }
 }
 
 #[test]

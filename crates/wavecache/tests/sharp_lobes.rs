@@ -7,8 +7,7 @@ mod common;
 
 use glimpse_core::{Image, luminance};
 use glimpse_render::pt::PathTracer;
-use glimpse_render::{FrameContext, Params, Settings, Technique};
-use glimpse_trace::GBuffer;
+use glimpse_render::{FrameContext, Params, Settings};
 use glimpse_wavecache::technique::lobe_finer_than_map;
 use glimpse_wavecache::{Wavecache, WavecacheParams};
 
@@ -24,12 +23,7 @@ fn the_rule_follows_the_map_resolution() {
     assert_eq!((WavecacheParams::default().sharp_texels, p.sharp_texels), (1.0, 2.0));
 }
 
-fn render(t: &mut dyn Technique, ctx: &FrameContext, g: &GBuffer) -> Image {
-    t.prepare(ctx).expect("prepare");
-    let mut img = ctx.image();
-    t.render(ctx, g, &mut img).expect("render");
-    img
-}
+use common::render;
 
 #[test]
 fn a_near_mirror_sphere_beside_a_small_emitter_matches_pt() {
