@@ -13,9 +13,10 @@
 use glimpse_core::{Aabb, Vec3};
 use glimpse_scene::{LightKind, SceneFrame, WorldLight};
 
-/// A focus is used only when its diagonal is under this share of the scene's: where the
-/// occluders fill the scene, the structure is the paper's.
-const WORTHWHILE: f32 = 0.5;
+/// A focus is used only when its diagonal is under this share of the scene's (cells at least 4×
+/// finer): where the occluders fill much of the scene, the structure is the paper's. At 0.5,
+/// `mixed-lights` (share 0.43) built its voxel array 2.4× longer for ε_s 0.8 → 0.6 %.
+const WORTHWHILE: f32 = 0.25;
 /// Most triangles tested as supporting planes (the largest: grounds and walls are).
 const CANDIDATES: usize = 64;
 /// A triangle smaller than this share of the largest one's area is not tested.
