@@ -77,11 +77,14 @@ pub struct Integrator<'a> {
     pub emitters: EmitterIndex,
     pub max_depth: u32,
     pub model: BrdfModel,
+    /// The irradiance includes the punctual lights' direct light
+    /// ([`crate::WavecacheParams::cache_punctual_above`]); otherwise the runtime traces it.
+    pub punctual_irradiance: bool,
 }
 
 impl<'a> Integrator<'a> {
     pub fn new(frame: &'a SceneFrame<'a>, tracer: &'a ExactTracer, max_depth: u32, model: BrdfModel) -> Self {
-        Self { frame, tracer, emitters: EmitterIndex::new(frame), max_depth, model }
+        Self { frame, tracer, emitters: EmitterIndex::new(frame), max_depth, model, punctual_irradiance: false }
     }
 
     fn pt(&self) -> PathIntegrator<'_> {
@@ -115,8 +118,8 @@ impl<'a> Integrator<'a> {
         a
     }
 
-    /// Irradiance ∫ L cos dω at a cache point without the direct
-    /// light of punctual lights (the runtime traces those): π × the radiance a white Lambertian
+    /// Irradiance ∫ L cos dω at a cache point without the direct light of punctual lights (the
+    /// runtime traces those) unless `punctual_irradiance`: π × the radiance a white Lambertian
     /// vertex reflects.
     pub fn irradiance(&self, s: &SurfaceSample, rng: &mut Rng) -> (Vec3, u64) {
         let v = PathVertex {
@@ -131,7 +134,7 @@ impl<'a> Integrator<'a> {
             model: glimpse_scene::MaterialModel::Pbr,
             front_face: true,
         };
-        let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: false };
+        let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: self.punctual_irradiance };
         let (l, rays) = self.pt().path(v, s.shading_normal, start, rng);
         (l * PI, rays)
     }

@@ -166,7 +166,8 @@ impl WaveCache {
 
         // Lighting.
         let sw = Stopwatch::start();
-        let integ = Integrator::new(frame, tracer, p.max_depth, p.brdf);
+        let mut integ = Integrator::new(frame, tracer, p.max_depth, p.brdf);
+        integ.punctual_irradiance = p.caches_punctual(frame.lights.len());
         let meshes: Vec<_> = (0..scene.instances.len()).map(|i| bake::world_mesh(frame, i)).collect();
         let areas: Vec<f32> = meshes.iter().map(|m| m.area()).collect();
         let total = |class: Class| -> f32 { (0..areas.len()).filter(|&i| inst_class[i] == class).map(|i| areas[i]).sum() };

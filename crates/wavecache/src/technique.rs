@@ -214,6 +214,9 @@ pub struct Runtime<'a> {
     env_sampler: Option<Arc<EnvSampler>>,
     /// `trace_disagree` as it applies to this scene (`auto` chosen from the environment).
     pub trace_disagree: f32,
+    /// The diffuse points' irradiance includes the punctual lights
+    /// ([`WavecacheParams::cache_punctual_above`]): cached diffuse pixels trace none.
+    pub punctual_cached: bool,
 }
 
 /// `env_direct`'s sampler of the frame's environment, where some map of `cache` has a
@@ -354,7 +357,21 @@ impl<'a> Runtime<'a> {
             (true, false) => f32::INFINITY,
             (false, _) => params.trace_disagree,
         };
-        Self { cache, params, frame, vis, classes, traced, emitters, normal_cutoff, pixel_env_samples, env_sampler, trace_disagree }
+        let punctual_cached = params.caches_punctual(frame.lights.len());
+        Self {
+            cache,
+            params,
+            frame,
+            vis,
+            classes,
+            traced,
+            emitters,
+            normal_cutoff,
+            pixel_env_samples,
+            env_sampler,
+            trace_disagree,
+            punctual_cached,
+        }
     }
 
     /// The cache point chosen for the shaded point `s` (normal `ns` for the score), on the side
@@ -616,7 +633,7 @@ impl<'a> Runtime<'a> {
         if class == Class::Mirror && !traced {
             return self.mirror(s, wo, depth, rng);
         }
-        let (d, mut rays) = self.punctual(s, wo);
+        let (mut d, mut rays, mut d_cached) = (Vec3::ZERO, 0, false);
         let indirect = if traced && depth + 1 < self.params.mirror_depth {
             let (l, r) = self.traced_sample(s, wo, depth, rng);
             rays += r;
@@ -643,10 +660,17 @@ impl<'a> Runtime<'a> {
                 rays += r;
                 l
             } else {
+                // Many punctual lights: a diffuse surface's irradiance holds their light too.
+                d_cached = class == Class::Diffuse && self.punctual_cached;
                 let n = if depth == 0 { self.pixel_env_samples } else { self.params.env_direct_samples };
                 self.cached_from(s, wo, reading) + self.env_direct(s, wo, reading, n, rng)
             }
         };
+        if !d_cached {
+            let (l, r) = self.punctual(s, wo);
+            d = l;
+            rays += r;
+        }
         let base = d + indirect;
         let gamma = self.frame.scene.materials[s.material as usize].clearcoat;
         if gamma <= 0.0 || self.params.brdf != BrdfModel::Pbr {
