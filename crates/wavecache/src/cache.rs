@@ -676,11 +676,16 @@ pub fn plan_points(frame: &SceneFrame, p: &WavecacheParams, inst_class: &[Class]
         PointPlan { points, map_res: map_res.clone(), paths: instance_paths.iter().sum(), instance_paths, scale }
     };
     let full = plan(1.0);
-    if p.path_budget == 0 || full.paths <= p.path_budget {
-        return full;
+    if p.path_budget > 0 && full.paths > p.path_budget {
+        // Scale both budgets by the ratio (the per-mesh minimum makes the result a little over it).
+        return plan(p.path_budget as f64 / full.paths as f64);
     }
-    // Scale both budgets by the ratio (the per-mesh minimum makes the result a little over it).
-    plan(p.path_budget as f64 / full.paths as f64)
+    // Too few paths: both budgets scale up to the floor (each mesh still capped by `min_spacing`).
+    let floor = if p.path_budget > 0 { p.path_floor.min(p.path_budget) } else { p.path_floor };
+    if full.paths > 0 && full.paths < floor {
+        return plan(floor as f64 / full.paths as f64);
+    }
+    full
 }
 
 /// Paths in the pilot of [`mean_rays_per_path`].

@@ -152,6 +152,11 @@ pub fn small_cached_sources(frame: &glimpse_scene::SceneFrame) -> bool {
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
 pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
 
+/// The default `path_floor`: about the lightest suite scene's plan (`warehouse-objects`, 10.2M
+/// paths), so no suite or tuned scene changes and no scene's cache is sparser than the points
+/// the budgets give a light one.
+pub const DEFAULT_PATH_FLOOR: u64 = 10_000_000;
+
 /// The default `ray_budget`: a little over the larger of the tuned scenes' precomputes
 /// (`bunny-glossy`: 75.8M paths at 3.62 rays per path = 274M rays; `glossy` 200M), so they and
 /// every scene with shorter paths keep their plan, while a closed interior (`sponza-interior`:
@@ -206,6 +211,12 @@ pub struct WavecacheParams {
     /// Most paths the lighting precomputation traces (`budget`; 0: no limit, the paper's
     /// profile): both point budgets shrink together to fit ([`cache::plan_points`]).
     pub path_budget: u64,
+    /// Fewest paths the lighting precomputation traces (`path_floor`, ours; 0: none, the paper's
+    /// profile): where the point budgets give fewer, both scale up together to it (bounded by
+    /// `min_spacing` and by the path budget). Sponza as one rough glossy mesh got 4,000 points
+    /// (r_max 0.74 m) and 1.4M paths, a fifth of the lightest suite scene's, and a third of its
+    /// pixels were traced as beyond the cache ([`cache::plan_points`]).
+    pub path_floor: u64,
     /// Most rays the lighting precomputation traces (`ray_budget`; 0: no limit): the path budget
     /// becomes `ray_budget` / the scene's mean rays per path, measured by a pilot
     /// ([`cache::mean_rays_per_path`]), when that is smaller ([`Self::effective_path_budget`]).
@@ -360,6 +371,7 @@ impl Default for WavecacheParams {
             min_points: 16,
             min_spacing: 1e-3,
             path_budget: DEFAULT_PATH_BUDGET,
+            path_floor: DEFAULT_PATH_FLOOR,
             ray_budget: DEFAULT_RAY_BUDGET,
             max_depth: 8,
             sparsify: 1.0,
@@ -406,6 +418,7 @@ impl WavecacheParams {
             texel_samples: 128,
             texel_light_samples: 0,
             path_budget: 0,
+            path_floor: 0,
             ray_budget: 0,
             min_spacing: 0.0,
             trace_sharp: false,
@@ -500,6 +513,7 @@ impl WavecacheParams {
             min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
             min_spacing: params.f32("min_spacing", base.min_spacing, 0.0, 1.0)?,
             path_budget: params.i64("budget", base.path_budget as i64, 0, 1 << 40)? as u64,
+            path_floor: params.i64("path_floor", base.path_floor as i64, 0, 1 << 40)? as u64,
             ray_budget: params.i64("ray_budget", base.ray_budget as i64, 0, 1 << 44)? as u64,
             max_depth: params.u32("max_depth", base.max_depth, 1, 1024)?,
             sparsify: params.f32("sparsify", base.sparsify, 0.0, 1.0)?,

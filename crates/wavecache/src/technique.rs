@@ -169,6 +169,13 @@ impl Wavecache {
         if let (Some(&paths), Some(&scale)) = (c.build_info.get(3), c.build_info.get(4)) {
             stats.metrics.push(("precompute_paths".to_owned(), paths));
             stats.metrics.push(("point_budget_scale".to_owned(), scale));
+            if scale > 1.0 {
+                eprintln!(
+                    "wavecache: cache points scaled to {scale:.2}× of diffuse_points/glossy_points ({:.1}M paths) toward path_floor={} (path_floor=0 lifts it)",
+                    paths / 1e6,
+                    self.params.path_floor,
+                );
+            }
             if scale < 1.0 {
                 // A parameter the scene made us choose: said once, with how to undo it.
                 eprintln!(

@@ -75,6 +75,7 @@ fn small_params() -> WavecacheParams {
         irradiance_samples: 64,
         diffuse_points: 400,
         glossy_points: 200,
+        path_floor: 0,
         disk_cache: false,
         progress: false,
         ..WavecacheParams::default()

@@ -60,8 +60,14 @@ fn a_walls_back_gets_its_own_light_not_its_fronts() {
 
     let mut pt = PathTracer::new(&Settings { spp: 256, seed: 3 }, &Params::default()).unwrap();
     let (reference, _) = render(&mut pt, &ctx, &g);
-    let params =
-        WavecacheParams { irradiance_samples: 256, diffuse_points: 1500, disk_cache: false, progress: false, ..Default::default() };
+    let params = WavecacheParams {
+        irradiance_samples: 256,
+        diffuse_points: 1500,
+        path_floor: 0,
+        disk_cache: false,
+        progress: false,
+        ..Default::default()
+    };
     let mut wc = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, params);
     let (image, stats) = render(&mut wc, &ctx, &g);
 

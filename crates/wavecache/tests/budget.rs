@@ -161,3 +161,30 @@ fn no_mesh_is_denser_than_the_minimum_spacing() {
     assert!(capped_b.paths as f64 <= 2.0e6 * 1.1);
     assert!(WavecacheParams::read(&Params::parse(&["min_spacing=-1"]).unwrap()).is_err());
 }
+
+/// `path_floor` (ours): a scene whose point budgets give fewer paths than the floor has both
+/// scaled up to it; the built-in Cornell box (diffuse: 20,000 points × 512 paths) and the tuned
+/// scenes are at or over it; `path_floor=0` and `profile=paper` leave the budgets as they are.
+#[test]
+fn a_light_plan_is_raised_to_the_floor() {
+    use glimpse_wavecache::DEFAULT_PATH_FLOOR;
+    for scene in ["cornell", "glossy"] {
+        let p = plan(scene, &[]);
+        assert_eq!(p.scale, 1.0, "{scene}: {} paths", p.paths);
+    }
+    // A glossy scene made light: few glossy points, and no diffuse ones to speak of.
+    let light = ["glossy_points=200", "diffuse_points=100"];
+    let raw = plan("glossy", &[&light[..], &["path_floor=0"]].concat());
+    let raised = plan("glossy", &light);
+    println!(
+        "glossy with 200 glossy points: {:.2}M paths, raised to {:.2}M (scale {:.2}; floor {:.0}M)",
+        raw.paths as f64 / 1e6,
+        raised.paths as f64 / 1e6,
+        raised.scale,
+        DEFAULT_PATH_FLOOR as f64 / 1e6
+    );
+    assert!(raw.paths < DEFAULT_PATH_FLOOR && raw.scale == 1.0);
+    assert!(raised.scale > 1.0 && raised.paths > raw.paths);
+    assert!(raised.paths as f64 <= DEFAULT_PATH_FLOOR as f64 * 1.1, "{} paths", raised.paths);
+    assert_eq!(plan("glossy", &[&light[..], &["profile=paper"]].concat()).scale, 1.0);
+}

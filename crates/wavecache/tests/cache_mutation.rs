@@ -30,6 +30,7 @@ fn params() -> WavecacheParams {
         texel_samples: 1,
         irradiance_samples: 16,
         diffuse_points: 60,
+        path_floor: 0,
         glossy_points: 40,
         disk_cache: false,
         progress: false,

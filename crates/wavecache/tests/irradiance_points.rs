@@ -46,6 +46,7 @@ fn params(enclosed_share: f32) -> WavecacheParams {
     WavecacheParams {
         irradiance_samples: 64,
         diffuse_points: 400,
+        path_floor: 0,
         enclosed_share,
         disk_cache: false,
         progress: false,

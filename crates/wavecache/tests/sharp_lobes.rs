@@ -45,6 +45,7 @@ fn a_near_mirror_sphere_beside_a_small_emitter_matches_pt() {
         texel_samples: 4,
         irradiance_samples: 128,
         diffuse_points: 800,
+        path_floor: 0,
         glossy_points: 300,
         disk_cache: false,
         progress: false,

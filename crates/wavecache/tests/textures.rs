@@ -40,6 +40,7 @@ fn params() -> WavecacheParams {
         texel_samples: 2,
         irradiance_samples: 128,
         diffuse_points: 600,
+        path_floor: 0,
         glossy_points: 400,
         disk_cache: false,
         progress: false,

@@ -40,6 +40,7 @@ pub fn small_params() -> glimpse_wavecache::WavecacheParams {
         irradiance_samples: 128,
         diffuse_points: 800,
         glossy_points: 600,
+        path_floor: 0,
         disk_cache: false,
         progress: false,
         ..glimpse_wavecache::WavecacheParams::default()
