@@ -162,8 +162,9 @@ pub struct LightsVoxArray {
     /// Confirm each occluded answer with an exact shadow ray (ours; see [`REFINE_BELOW_LIGHTS`]).
     pub refine: bool,
     /// `focus=auto` (ours; `profile=paper`: `scene`): a static scene's array covers the
-    /// triangles that can block a shadow ray ([`Focus`]) where their box is under half the
-    /// scene, instead of the whole scene, and queries the part of each segment inside it.
+    /// triangles that can block a shadow ray ([`Focus`]) where their box's diagonal is under a
+    /// quarter of the scene's, instead of the whole scene, and queries the part of each
+    /// segment inside it.
     pub focus: bool,
     /// The focus the static array was built in (`None`: the whole scene).
     pub focus_box: Option<Focus>,
