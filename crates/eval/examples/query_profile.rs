@@ -28,7 +28,7 @@ fn main() {
 
     let p = VoxArrayParams::default();
     let triangles = frame.world_triangles();
-    let path = glimpse_render::cache_dir().map(|d| disk_cache::path_for(&d, &triangles, &p));
+    let path = glimpse_render::cache_dir().map(|d| disk_cache::path_for(&d, &triangles, None, &p));
     let array = match path.as_ref().and_then(|path| disk_cache::load(path, &p)) {
         Some(a) => a,
         None => {
