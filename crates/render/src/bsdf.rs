@@ -230,6 +230,20 @@ pub fn fresnel_conductor(cos: f32, eta: Vec3, k: Vec3) -> Vec3 {
     Vec3::new(one(eta.x, k.x), one(eta.y, k.y), one(eta.z, k.z))
 }
 
+/// One of smooth glass's two delta lobes for `wo` (unit, away from the surface) at its unit
+/// normal `n` (facing `wo`), picked by `u` ∈ [0, 1): reflection with probability F (weight
+/// `base`·F/F), else refraction (weight `base`/η², radiance compressed by the change of solid
+/// angle, pbrt-v4's radiance transport). `front_face`: `wo` is on the side the winding faces,
+/// outside a glass of relative index `ior`. Returns (direction, weight).
+pub fn sample_smooth_glass(wo: Vec3, n: Vec3, front_face: bool, ior: f32, base: Vec3, u: f32) -> (Vec3, Vec3) {
+    let eta = if front_face { ior } else { 1.0 / ior };
+    let f = fresnel_dielectric(n.dot(wo), eta);
+    match if u < f { None } else { refract(wo, n, eta) } {
+        Some(t) => (t, base / (eta * eta)),
+        None => ((2.0 * n.dot(wo) * n - wo).normalize(), base),
+    }
+}
+
 /// The exact Fresnel reflectance of a smooth dielectric boundary at cos θi (> 0, on the side
 /// of the incident light) with relative IOR `eta` = η_transmitted / η_incident (pbrt-v4's
 /// FrDielectric); 1 under total internal reflection.

@@ -11,7 +11,7 @@
 //! (the part outside crosses no occluder).
 
 use glimpse_core::{Aabb, Vec3};
-use glimpse_scene::{LightKind, SceneFrame, WorldLight};
+use glimpse_scene::{LightKind, WorldLight};
 
 /// A focus is used only when its diagonal is under this share of the scene's (cells at least 4×
 /// finer): where the occluders fill much of the scene, the structure is the paper's. At 0.5,
@@ -29,14 +29,13 @@ pub struct Focus {
 }
 
 impl Focus {
-    /// The occluders' box of `frame` for shadow rays toward `lights`, or `None` where it is not
-    /// much smaller than the scene (or nothing can occlude).
-    pub fn occluders(frame: &SceneFrame, lights: &[WorldLight]) -> Option<Focus> {
-        let triangles = frame.world_triangles();
-        let scene = frame.bounds;
+    /// The occluders' box of a scene's world-space `triangles` (within `scene`, its bounds) for
+    /// shadow rays toward `lights`, or `None` where it is not much smaller than the scene (or
+    /// nothing can occlude).
+    pub fn occluders(triangles: &[[Vec3; 3]], scene: Aabb, lights: &[WorldLight]) -> Option<Focus> {
         let diagonal = scene.extent().length();
         let tolerance = 1e-4 * diagonal;
-        let supporting = supporting_triangles(&triangles, lights, tolerance);
+        let supporting = supporting_triangles(triangles, lights, tolerance);
         let bounds = triangles
             .iter()
             .enumerate()
@@ -49,10 +48,10 @@ impl Focus {
 /// The indices (sorted) of the large triangles whose plane has every vertex of the scene, every
 /// point and spot light on one side (within `tolerance`) and faces every directional light.
 fn supporting_triangles(triangles: &[[Vec3; 3]], lights: &[WorldLight], tolerance: f32) -> Vec<usize> {
-    let area = |t: &[Vec3; 3]| (t[1] - t[0]).cross(t[2] - t[0]).length();
-    let largest = triangles.iter().map(area).fold(0.0f32, f32::max);
-    let mut candidates: Vec<usize> = (0..triangles.len()).filter(|&i| area(&triangles[i]) >= SMALL * largest).collect();
-    candidates.sort_by(|&a, &b| area(&triangles[b]).total_cmp(&area(&triangles[a])));
+    let areas: Vec<f32> = triangles.iter().map(|t| (t[1] - t[0]).cross(t[2] - t[0]).length()).collect();
+    let largest = areas.iter().copied().fold(0.0f32, f32::max);
+    let mut candidates: Vec<usize> = (0..triangles.len()).filter(|&i| areas[i] >= SMALL * largest).collect();
+    candidates.sort_by(|&a, &b| areas[b].total_cmp(&areas[a]));
     candidates.truncate(CANDIDATES);
     let mut out: Vec<usize> = candidates
         .into_iter()

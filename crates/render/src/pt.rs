@@ -175,23 +175,9 @@ impl PathIntegrator<'_> {
         for depth in start.depth..=self.max_depth {
             let model = if depth == start.depth { start.model.unwrap_or(self.model) } else { self.model };
             if let (BrdfModel::Pbr, MaterialModel::Dielectric { ior }) = (model, v.model) {
-                // Smooth glass: only its delta lobes, no light sampling. Reflect with probability
-                // F (weight base·F/F), else refract (weight base/η², radiance compressed by the
-                // change of solid angle, pbrt-v4's radiance transport).
-                let eta = if v.front_face { ior } else { 1.0 / ior };
-                let n = v.normal;
-                let f = bsdf::fresnel_dielectric(n.dot(wo), eta);
-                let refracted = if rng.next_f32() < f { None } else { bsdf::refract(wo, n, eta) };
-                let wi = match refracted {
-                    Some(t) => {
-                        beta *= v.base / (eta * eta);
-                        t
-                    }
-                    None => {
-                        beta *= v.base;
-                        (2.0 * n.dot(wo) * n - wo).normalize()
-                    }
-                };
+                // Smooth glass: only its delta lobes, no light sampling.
+                let (wi, weight) = bsdf::sample_smooth_glass(wo, v.normal, v.front_face, ior, v.base, rng.next_f32());
+                beta *= weight;
                 let ray = Ray::spawn(v.position, v.normal, v.error_scale, wi);
                 rays += 1;
                 let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {

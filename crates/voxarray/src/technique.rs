@@ -299,7 +299,7 @@ impl Technique for LightsVoxArray {
         } else if self.structure.is_none() {
             let triangles = ctx.frame.world_triangles();
             let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
-            self.focus_box = if self.focus { stats.time("focus", || Focus::occluders(&ctx.frame, lights)) } else { None };
+            self.focus_box = if self.focus { stats.time("focus", || Focus::occluders(&triangles, ctx.frame.bounds, lights)) } else { None };
             let focus = self.focus_box.map(|f| f.bounds);
             // A static scene's compressed array is cached on disk (see `disk_cache`).
             let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::structure_cache_dir() } else { None };

@@ -820,18 +820,10 @@ impl<'a> Runtime<'a> {
     /// otherwise, exactly as `pt` picks them (weights base and base/η²), followed up to
     /// `mirror_depth` links; the surface the chain reaches is shaded from the cache.
     fn glass(&self, s: &ShadePoint, wo: Vec3, ior: f32, depth: u32, rng: &mut Rng) -> (Vec3, u64) {
-        let eta = if s.front_face { ior } else { 1.0 / ior };
-        let n = s.normal;
-        let cos = n.dot(wo);
-        if cos <= 0.0 {
+        if s.normal.dot(wo) <= 0.0 {
             return (Vec3::ZERO, 0);
         }
-        let f = bsdf::fresnel_dielectric(cos, eta);
-        let refracted = if rng.next_f32() < f { None } else { bsdf::refract(wo, n, eta) };
-        let (dir, weight) = match refracted {
-            Some(t) => (t, s.base / (eta * eta)),
-            None => ((2.0 * cos * n - wo).normalize(), s.base),
-        };
+        let (dir, weight) = bsdf::sample_smooth_glass(wo, s.normal, s.front_face, ior, s.base, rng.next_f32());
         let (l, rays) = self.radiance_along(s, dir, depth, self.params.mirror_depth, rng);
         (weight * l, rays)
     }
