@@ -19,6 +19,7 @@ pub use distance_field::DistanceField;
 pub use sphere_trace::SphereTraceParams;
 
 use glimpse_core::{Ray, Vec3};
+use glimpse_render::focus::{ExactTriangles, FocusCache};
 use glimpse_render::{ParamError, Params, Stopwatch, TechniqueInfo};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::Visibility;
@@ -41,6 +42,9 @@ pub struct DfParams {
     pub jitter: bool,
     pub origin_offset_cells: f32,
     pub trace: SphereTraceParams,
+    /// `focus=auto`: the grid surrounds all but the scene's supporting planes, which are tested
+    /// exactly, as ROMA's ([`glimpse_render::focus`]); `false` is the paper's scene cube.
+    pub focus: bool,
 }
 
 impl Default for DfParams {
@@ -51,12 +55,14 @@ impl Default for DfParams {
             jitter: true,
             origin_offset_cells: 1.5,
             trace: SphereTraceParams::default(),
+            focus: false,
         }
     }
 }
 
 impl DfParams {
-    /// Reads `resolution`, `voxelization`, `jitter`, `offset`, `steps` with `self` as defaults.
+    /// Reads `resolution`, `voxelization`, `jitter`, `offset`, `steps` with `self` as defaults,
+    /// and `focus` (`auto` unless `profile=paper`, as ROMA's).
     pub fn read(self, params: &Params) -> Result<Self, ParamError> {
         let resolution = params.u32("resolution", self.resolution, 32, 128)?;
         if ![32, 64, 128].contains(&resolution) {
@@ -71,12 +77,14 @@ impl DfParams {
             _ => Voxelization::PAPER,
         };
         let max_steps = params.u32("steps", self.trace.max_steps, 1, 4096)?;
+        let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
         Ok(Self {
             resolution,
             voxelization,
             jitter: params.bool("jitter", self.jitter)?,
             origin_offset_cells: params.f32("offset", self.origin_offset_cells, 0.0, 16.0)?,
             trace: SphereTraceParams { max_steps, ..self.trace },
+            focus: params.choice("focus", if paper { "scene" } else { "auto" }, &["auto", "scene"])? == "auto",
         })
     }
 }
@@ -84,6 +92,7 @@ impl DfParams {
 /// Build timings by stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct DfTimings {
+    pub focus_ms: f64,
     pub voxelize_ms: f64,
     pub jump_flood_ms: f64,
 }
@@ -94,15 +103,35 @@ pub struct DfScene {
     pub field: DistanceField,
     pub params: DfParams,
     pub timings: DfTimings,
+    /// The supporting planes a focused grid leaves out (empty where it holds the whole scene).
+    pub exact: ExactTriangles,
+    /// The focus's share of the scene's diagonal, where the grid is focused.
+    pub focus_share: Option<f32>,
 }
 
 impl DfScene {
-    /// BOM (same grid, jitter and voxelization as ROMA's for this seed and frame) → field.
+    /// BOM (same grid, jitter, voxelization and focus as ROMA's for this seed and frame) → field.
     pub fn build(frame: &SceneFrame, params: &DfParams, seed: u64, frame_index: u32) -> DfScene {
+        Self::build_cached(frame, params, &mut FocusCache::default(), seed, frame_index)
+    }
+
+    /// [`DfScene::build`] with the focus from `cache` (a technique's, kept across its frames).
+    pub fn build_cached(frame: &SceneFrame, params: &DfParams, cache: &mut FocusCache, seed: u64, frame_index: u32) -> DfScene {
         let sw = Stopwatch::start();
-        let triangles = frame.world_triangles();
+        let all = frame.world_triangles();
+        let gathered_ms = sw.ms();
+        let focus = if params.focus { cache.for_all_rays(frame, &all) } else { None };
+        // Gathering the triangles and splitting them count as the BOM's, as ROMA's.
+        let focus_ms = sw.ms() - gathered_ms;
+        let (triangles, exact, bounds) = match &focus {
+            Some(f) => {
+                let (inside, exact) = f.split(&all);
+                (inside, exact, f.bounds)
+            }
+            None => (all, ExactTriangles::default(), frame.bounds),
+        };
         let jitter = if params.jitter { glimpse_voxel::frame_jitter(seed, frame_index) } else { Vec3::ZERO };
-        let grid = Grid::around(frame.bounds, params.resolution, jitter);
+        let grid = Grid::around(bounds, params.resolution, jitter);
         fn field<W: Word>(t: &[[Vec3; 3]], grid: Grid, v: Voxelization) -> (DistanceField, f64) {
             let sw = Stopwatch::start();
             let bom: OccupancyMap<W> = occupancy::voxelize(t, &grid, v);
@@ -116,8 +145,10 @@ impl DfScene {
             _ => field::<u128>(&triangles, grid, params.voxelization),
         };
         let total = sw.ms();
-        let voxelize_ms = start + bom_ms;
-        DfScene { field, params: *params, timings: DfTimings { voxelize_ms, jump_flood_ms: total - voxelize_ms } }
+        let voxelize_ms = start - focus_ms + bom_ms;
+        let timings = DfTimings { focus_ms, voxelize_ms, jump_flood_ms: total - start - bom_ms };
+        let focus_share = focus.map(|f| f.share_of(frame.bounds));
+        DfScene { field, params: *params, timings, exact, focus_share }
     }
 
     pub fn cell_size_world(&self) -> f32 {
@@ -127,7 +158,7 @@ impl DfScene {
     /// Is the segment `from → from + dir·t_max` blocked (sphere tracing, no offsets)?
     #[inline]
     pub fn blocked(&self, from: Vec3, dir: Vec3, t_max: f32) -> bool {
-        self.field.sphere_trace(from, dir, t_max, &self.params.trace).hit.is_some()
+        self.field.sphere_trace(from, dir, t_max, &self.params.trace).hit.is_some() || self.exact.any_hit(from, dir, t_max)
     }
 }
 

@@ -10,6 +10,7 @@ use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec3};
 use glimpse_render::direct::area_light_segment;
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::focus::FocusCache;
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
@@ -21,6 +22,7 @@ struct DfState {
     params: DfParams,
     settings: Settings,
     df: Option<DfScene>,
+    focus: FocusCache,
     accumulator: Accumulator,
 }
 
@@ -29,7 +31,7 @@ impl DfState {
         direct::require_spp(settings)?;
         let p = defaults.read(params)?;
         let window = params.u32("accumulate", DEFAULT_ACCUMULATE, 1, 1 << 20)?;
-        Ok(Self { params: p, settings: *settings, df: None, accumulator: Accumulator::new(window) })
+        Ok(Self { params: p, settings: *settings, df: None, focus: FocusCache::default(), accumulator: Accumulator::new(window) })
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
@@ -37,10 +39,17 @@ impl DfState {
         // u16 (R³ · (1 + 1/8 + 1/64) · 2 B < 3 B per cell).
         let r = self.params.resolution as u64;
         glimpse_core::memory_budget::check(format!("the {r}³ distance field"), r * r * r * 7 + r * r * r / 8)?;
-        let df = DfScene::build(&ctx.frame, &self.params, self.settings.seed, ctx.frame_index);
+        let df = DfScene::build_cached(&ctx.frame, &self.params, &mut self.focus, self.settings.seed, ctx.frame_index);
         let mut stats = Stats { memory_bytes: df.field.memory_bytes(), ..Default::default() };
+        if self.params.focus {
+            stats.stage("focus", df.timings.focus_ms);
+        }
         stats.stage("bom", df.timings.voxelize_ms);
         stats.stage("jump flood", df.timings.jump_flood_ms);
+        stats.metrics.push(("cell_m".to_owned(), df.cell_size_world() as f64));
+        if let Some(share) = df.focus_share {
+            stats.metrics.push(("focus_share".to_owned(), share as f64));
+        }
         self.df = Some(df);
         Ok(stats)
     }

@@ -133,3 +133,40 @@ fn check_04_equal_storage_with_roma() {
     );
     assert_eq!(level0, 4 << 20);
 }
+
+#[test]
+fn check_05_a_focused_field_keeps_a_contact_shadow() {
+    // `focus=auto` (ours, as ROMA's): a 2 m slab floating 5 cm over a 300 m ground. The scene's
+    // cube has 3.4 m cells, so the slab and the ground are one layer of cells and the 1.5-cell
+    // offset lifts every AO ray above the slab; focused, the ground is tested exactly.
+    use glimpse_baselines::technique::AoDf;
+    use glimpse_render::ao::AoExact;
+    use glimpse_render::{FrameContext, Params, Settings, Technique};
+    let toml = "[camera]\nposition = [0.0, 2.5, 4.0]\ntarget = [0.0, 0.2, 0.0]\nfov_y_degrees = 45.0\n\
+        [[quad]]\nsize = [300.0, 300.0]\n[[box]]\nsize = [2.0, 0.3, 2.0]\ntranslate = [0.0, 0.2, 0.0]\n";
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("slab.toml");
+    std::fs::write(&path, toml).unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    let ctx = FrameContext::new(&scene, 0.0, 48, 32);
+    let g = ctx.gbuffer();
+    let mut reference = ctx.image();
+    AoExact::new(&Settings { spp: 256, seed: 9 }, &Params::default()).unwrap().render(&ctx, &g, &mut reference).unwrap();
+    let error = |focus: &str| {
+        let params = Params::parse(&[focus]).unwrap();
+        let mut t = AoDf::new(&Settings { spp: 64, seed: 3 }, &params).unwrap();
+        params.finish("ao-df").unwrap();
+        let stats = t.prepare(&ctx).unwrap();
+        let mut img = ctx.image();
+        t.render(&ctx, &g, &mut img).unwrap();
+        let sum: f64 = img.pixels.iter().zip(&reference.pixels).map(|(p, q)| ((p.x - q.x) as f64).powi(2)).sum();
+        let cell = stats.metrics.iter().find(|(k, _)| k == "cell_m").unwrap().1;
+        ((sum / img.pixels.len() as f64).sqrt(), cell)
+    };
+    let ((wide, wide_cell), (focused, focused_cell)) = (error("focus=scene"), error("focus=auto"));
+    println!(
+        "check 5: ao-df vs ao-exact: scene's cube (cell {wide_cell:.2} m) RMSE {wide:.4}; focused (cell {focused_cell:.3} m) RMSE {focused:.4}"
+    );
+    assert!(focused_cell < 0.05 * wide_cell);
+    assert!(wide > 0.1 && focused < 0.4 * wide && focused < 0.07, "RMSE {wide} → {focused}");
+}

@@ -43,7 +43,18 @@ pub struct GpuScene {
 impl GpuScene {
     /// Flattens, builds and uploads `frame`; the copy is timed as "upload" on `timer`.
     pub fn new(ctx: &GpuContext, frame: &SceneFrame, timer: &mut GpuTimer) -> Result<Self, GpuError> {
-        let (nodes, triangles, ids) = flatten(frame)?;
+        let (tris, ids) = gather(frame);
+        Self::from_flat(ctx, build(tris, ids)?, timer)
+    }
+
+    /// A scene of bare world-space triangles (ids: instance 0, the triangle's index), under the
+    /// CPU tracer's BLAS: what a focused ROMA grid leaves out is traced this way.
+    pub fn from_triangles(ctx: &GpuContext, triangles: &[[Vec3A; 3]], timer: &mut GpuTimer) -> Result<Self, GpuError> {
+        let ids = (0..triangles.len() as u32).map(|triangle| PrimId { instance: 0, triangle }).collect();
+        Self::from_flat(ctx, build(triangles.to_vec(), ids)?, timer)
+    }
+
+    fn from_flat(ctx: &GpuContext, (nodes, triangles, ids): Flat, timer: &mut GpuTimer) -> Result<Self, GpuError> {
         check_sizes(ctx, &nodes, &triangles)?;
         let mut scene = Self {
             nodes: ReusableBuffer::new(ctx, "bvh nodes", size_of_val(&nodes[..]) as u64)?,
@@ -60,7 +71,8 @@ impl GpuScene {
     /// Moves to another frame: rebuilds the tree on the CPU and rewrites the buffers, in place
     /// when they are large enough.
     pub fn update(&mut self, ctx: &GpuContext, frame: &SceneFrame, timer: &mut GpuTimer) -> Result<(), GpuError> {
-        let (nodes, triangles, ids) = flatten(frame)?;
+        let (tris, ids) = gather(frame);
+        let (nodes, triangles, ids) = build(tris, ids)?;
         check_sizes(ctx, &nodes, &triangles)?;
         let grew =
             self.nodes.reserve(ctx, size_of_val(&nodes[..]) as u64)? | self.triangles.reserve(ctx, size_of_val(&triangles[..]) as u64)?;
@@ -119,8 +131,8 @@ fn check_sizes(ctx: &GpuContext, nodes: &[GpuNode], triangles: &[GpuTriangle]) -
 /// The GPU forms of a frame: nodes, triangles, and the triangles' scene ids.
 type Flat = (Vec<GpuNode>, Vec<GpuTriangle>, Vec<PrimId>);
 
-/// World-space triangles of every instance, the CPU tracer's BLAS over them, and the GPU forms.
-fn flatten(frame: &SceneFrame) -> Result<Flat, GpuError> {
+/// World-space triangles of every instance and their scene ids.
+fn gather(frame: &SceneFrame) -> (Vec<[Vec3A; 3]>, Vec<PrimId>) {
     let scene = frame.scene;
     let (mut tris, mut ids) = (Vec::new(), Vec::new());
     for (ii, inst) in scene.instances.iter().enumerate() {
@@ -131,6 +143,11 @@ fn flatten(frame: &SceneFrame) -> Result<Flat, GpuError> {
             ids.push(PrimId { instance: ii as u32, triangle: ti as u32 });
         }
     }
+    (tris, ids)
+}
+
+/// The CPU tracer's BLAS over world-space triangles, and the GPU forms.
+fn build(tris: Vec<[Vec3A; 3]>, ids: Vec<PrimId>) -> Result<Flat, GpuError> {
     // The hit record's NO_HIT (u32::MAX) must never be a triangle index.
     if tris.len() >= u32::MAX as usize {
         return Err(GpuError::TooManyTriangles(tris.len()));

@@ -22,14 +22,22 @@
 //! BOM's u32s), `generate` (one per texel of every OM), `query` (one per ray: stratum selection,
 //! transform, slice range, bit test; modes any-hit, `occluded_ray`, closest hit), `dda` (one per
 //! segment: `RomaMaps::any_hit_unsnapped`, the clip and the texel walk).
+//!
+//! `focus=auto` ([`GpuRoma::build_frame`], as [`crate::Roma::build`]): the kernels build the
+//! grid around all but the scene's supporting planes, and those planes are traced by the exact
+//! GPU tracer ([`glimpse_gpu::GpuTracer`], the CPU's watertight test bit for bit) in a second
+//! pass over each batch's queries: the snapped rays are made on the CPU from the same
+//! candidates, and the answers combined as the CPU's queries combine them.
 
 use crate::directions::CandidateSet;
 use crate::grid::om_axes;
-use crate::{Grid, MapTransform, RomaParams, frame_grid_and_candidates};
+use crate::{Grid, MapTransform, RomaParams, frame_grid_and_candidates, occluded_exact_ray};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Aabb, Frame, Image, Ray, Rng, Vec3};
 use glimpse_gpu::compute::{Kernel, ReusableBuffer, hexf, read_back, storage_buffer, storage_buffer_zeroed, uniform_buffer};
-use glimpse_gpu::{GpuContext, GpuError, GpuTimer, KernelTime, wgpu};
+use glimpse_gpu::{GpuContext, GpuError, GpuScene, GpuTimer, GpuTracer, KernelTime, wgpu};
+use glimpse_render::focus::FocusCache;
+use glimpse_scene::SceneFrame;
 use glimpse_trace::GBuffer;
 
 /// `ao-roma`, `soft-roma` and `gi-roma` as `Technique`s on the GPU (`--device gpu`).
@@ -154,6 +162,13 @@ pub struct GpuRoma {
     frame: Option<GpuRomaFrame>,
     queries: Option<ReusableBuffer>,
     results: Option<ReusableBuffer>,
+    /// The supporting planes a focused grid leaves out, and the exact tracer for them (compiled
+    /// at the first focused frame).
+    exact: Option<GpuScene>,
+    exact_tracer: Option<GpuTracer>,
+    /// The focus's share of the scene's diagonal, where the last frame was focused.
+    pub focus_share: Option<f32>,
+    focus: FocusCache,
     /// Kernel times of the last query batch (empty without timestamp queries).
     pub last_times: Vec<KernelTime>,
 }
@@ -194,8 +209,64 @@ impl GpuRoma {
             frame: None,
             queries: None,
             results: None,
+            exact: None,
+            exact_tracer: None,
+            focus_share: None,
+            focus: FocusCache::default(),
             last_times: Vec::new(),
         })
+    }
+
+    /// One frame of `frame`, as [`crate::Roma::build`]: with `params.focus`, the grid around all
+    /// but the supporting planes (where that pays), which are uploaded for the exact pass.
+    pub fn build_frame(
+        &mut self,
+        ctx: &GpuContext,
+        frame: &SceneFrame,
+        params: &RomaParams,
+        seed: u64,
+        frame_index: u32,
+        timer: &mut GpuTimer,
+    ) -> Result<(), GpuError> {
+        let triangles = frame.world_triangles();
+        let focus = if params.focus { self.focus.for_all_rays(frame, &triangles) } else { None };
+        let Some(focus) = focus else {
+            return self.build(ctx, &triangles, frame.bounds, params, seed, frame_index, timer);
+        };
+        let (inside, exact) = focus.split(&triangles);
+        self.build(ctx, &inside, focus.bounds, params, seed, frame_index, timer)?;
+        if self.exact_tracer.is_none() {
+            self.exact_tracer = Some(GpuTracer::new(ctx)?);
+        }
+        self.exact = Some(GpuScene::from_triangles(ctx, exact.triangles(), timer)?);
+        self.focus_share = Some(focus.share_of(frame.bounds));
+        Ok(())
+    }
+
+    /// Bytes of the current frame's buffers (the maps, the BOM, the exact planes).
+    pub fn memory_bytes(&self) -> Result<u64, GpuError> {
+        let f = self.frame()?;
+        Ok(f.bom.size() + f.maps.size() + self.exact.as_ref().map_or(0, GpuScene::memory_bytes))
+    }
+
+    /// The exact pass of a focused frame over the queries the grid left unblocked: `ray` makes
+    /// each query's exact ray from the frame's candidates (`None`: nothing to test).
+    fn exact_any(
+        &mut self,
+        ctx: &GpuContext,
+        queries: &[GpuQuery],
+        blocked: &mut [bool],
+        ray: impl Fn(&GpuRomaFrame, &GpuQuery) -> Option<(Ray, f32)>,
+    ) -> Result<(), GpuError> {
+        let (Some(scene), Some(tracer), Some(f)) = (&self.exact, &mut self.exact_tracer, &self.frame) else {
+            return Ok(());
+        };
+        let (which, rays): (Vec<usize>, Vec<(Ray, f32)>) =
+            queries.iter().enumerate().filter(|(i, _)| !blocked[*i]).filter_map(|(i, q)| Some((i, ray(f, q)?))).unzip();
+        for (i, b) in which.into_iter().zip(tracer.occluded(ctx, scene, &rays)?) {
+            blocked[i] |= b;
+        }
+        Ok(())
     }
 
     /// The frame built last, or an error before the first [`GpuRoma::build`].
@@ -226,7 +297,7 @@ impl GpuRoma {
         if params.n == 0 || params.n > 32 {
             return Err(GpuError::Validation(format!("n = {}: must be 1 to 32", params.n)));
         }
-        self.frame = None;
+        (self.frame, self.exact, self.focus_share) = (None, None, None);
         let (grid, candidates) = frame_grid_and_candidates(bounds, params, seed, frame_index);
         let axes: Vec<Frame> = candidates.dirs.iter().map(|&d| om_axes(d)).collect();
         let to_map: Vec<MapTransform> = axes.iter().map(|a| MapTransform::new(&grid, a)).collect();
@@ -287,26 +358,54 @@ impl GpuRoma {
     /// Snapped any-hit of `(origin, dir, t_max)`: the stratum of `dir`, then
     /// [`crate::RomaMaps::any_hit_snapped`] from `origin` as given (no offset), as `ao-roma` does.
     pub fn any_hit_snapped(&mut self, ctx: &GpuContext, queries: &[GpuQuery]) -> Result<Vec<bool>, GpuError> {
-        Ok(self.run(ctx, Pass::Query(Mode::AnyHit), queries)?.into_iter().map(|r| r != 0).collect())
+        let mut blocked: Vec<bool> = self.run(ctx, Pass::Query(Mode::AnyHit), queries)?.into_iter().map(|r| r != 0).collect();
+        self.exact_any(ctx, queries, &mut blocked, |f, q| Some((Ray::new(q.origin.into(), snapped(f, q)), q.t_max)))?;
+        Ok(blocked)
     }
 
     /// [`crate::RomaMaps::occluded_ray`] (the [`glimpse_trace::Visibility`] answer) for each ray.
     pub fn occluded(&mut self, ctx: &GpuContext, rays: &[(Ray, f32)]) -> Result<Vec<bool>, GpuError> {
         let queries: Vec<GpuQuery> = rays.iter().map(|(r, t)| GpuQuery::new(r.origin, r.dir, *t)).collect();
-        Ok(self.run(ctx, Pass::Query(Mode::Occluded), &queries)?.into_iter().map(|r| r != 0).collect())
+        let mut blocked: Vec<bool> = self.run(ctx, Pass::Query(Mode::Occluded), &queries)?.into_iter().map(|r| r != 0).collect();
+        self.exact_any(ctx, &queries, &mut blocked, |f, q| {
+            occluded_exact_ray(snapped(f, q), q.origin.into(), q.t_max, f.origin_offset_cells * f.grid.cell_size_world)
+        })?;
+        Ok(blocked)
     }
 
     /// Snapped closest hit of `(origin, dir, t_max)`: the stratum of `dir`, then
     /// [`crate::RomaMaps::closest_hit_snapped`] (world distance along the snapped direction).
     pub fn closest_hit_snapped(&mut self, ctx: &GpuContext, queries: &[GpuQuery]) -> Result<Vec<Option<f32>>, GpuError> {
-        Ok(self.run(ctx, Pass::Query(Mode::ClosestHit), queries)?.into_iter().map(|r| (r != u32::MAX).then(|| f32::from_bits(r))).collect())
+        let mut hits: Vec<Option<f32>> = self
+            .run(ctx, Pass::Query(Mode::ClosestHit), queries)?
+            .into_iter()
+            .map(|r| (r != u32::MAX).then(|| f32::from_bits(r)))
+            .collect();
+        // The exact planes: the nearer of the two, as `RomaMaps::closest_hit_snapped`.
+        if let (Some(scene), Some(tracer), Some(f)) = (&self.exact, &mut self.exact_tracer, &self.frame) {
+            let rays: Vec<(Ray, f32)> = queries.iter().map(|q| (Ray::new(q.origin.into(), snapped(f, q)), q.t_max)).collect();
+            for (hit, exact) in hits.iter_mut().zip(tracer.closest_hit(ctx, scene, &rays)?) {
+                *hit = match (*hit, exact.map(|h| h.t)) {
+                    (Some(g), Some(e)) => Some(if e < g { e } else { g }),
+                    (g, e) => g.or(e),
+                };
+            }
+        }
+        Ok(hits)
     }
 
     /// [`crate::RomaMaps::any_hit_unsnapped`] of each segment `from → to` (world; made with
     /// [`GpuQuery::segment`]): the OM of its direction's stratum, a DDA of at most `max_steps`
     /// texel fetches.
     pub fn any_hit_unsnapped(&mut self, ctx: &GpuContext, segments: &[GpuQuery], max_steps: u32) -> Result<Vec<bool>, GpuError> {
-        Ok(self.run(ctx, Pass::Dda(max_steps), segments)?.into_iter().map(|r| r != 0).collect())
+        let mut blocked: Vec<bool> = self.run(ctx, Pass::Dda(max_steps), segments)?.into_iter().map(|r| r != 0).collect();
+        // As `RomaMaps::any_hit_unsnapped`: the segment itself, un-snapped.
+        self.exact_any(ctx, segments, &mut blocked, |_, q| {
+            let (from, to) = (Vec3::from(q.origin), Vec3::from(q.dir));
+            let dir = (to - from).try_normalize()?;
+            Some((Ray::new(from, dir), (to - from).length()))
+        })?;
+        Ok(blocked)
     }
 
     /// Runs the query kernel over `queries` in chunks within the binding and dispatch limits.
@@ -358,6 +457,13 @@ impl GpuRoma {
         self.last_times = timer.finish(ctx)?;
         Ok(out)
     }
+}
+
+/// A query's direction snapped to its stratum's candidate (`CandidateSet::select`, the kernel's
+/// `select_candidate`).
+fn snapped(f: &GpuRomaFrame, q: &GpuQuery) -> Vec3 {
+    let (k, sign) = f.candidates.select(q.dir.into());
+    f.candidates.dirs[k] * sign
 }
 
 /// The rays of the CPU `ao-roma`'s single frame ([`crate::technique::ambient_occlusion`]): per

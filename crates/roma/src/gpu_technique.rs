@@ -77,12 +77,13 @@ impl GpuRomaState {
             self.roma = Some(stats.time("gpu kernels", || GpuRoma::new(gpu)).map_err(|e| gpu_error(id, e))?);
         }
         let roma = self.roma.as_mut().ok_or_else(|| gpu_error(id, "the kernels were not compiled"))?;
-        let triangles = stats.time("gather", || ctx.frame.world_triangles());
-        let mut timer = GpuTimer::new(gpu, 2);
+        // The upload of a focused frame's exact planes is a third timed pass.
+        let mut timer = GpuTimer::new(gpu, 3);
         let (seed, frame_index) = (self.settings.seed, ctx.frame_index);
-        stats
-            .time("gpu build", || roma.build(gpu, &triangles, ctx.frame.bounds, p, seed, frame_index, &mut timer))
-            .map_err(|e| gpu_error(id, e))?;
+        stats.time("gpu build", || roma.build_frame(gpu, &ctx.frame, p, seed, frame_index, &mut timer)).map_err(|e| gpu_error(id, e))?;
+        if let Some(share) = roma.focus_share {
+            stats.metrics.push(("focus_share".to_owned(), share as f64));
+        }
         stats.memory_bytes = self.memory_bytes()?;
         Ok(stats)
     }
@@ -97,8 +98,8 @@ impl GpuRomaState {
     }
 
     fn memory_bytes(&self) -> Result<usize, RenderError> {
-        let f = self.roma.as_ref().ok_or_else(|| gpu_error(self.id, "not built"))?.frame().map_err(|e| gpu_error(self.id, e))?;
-        Ok((f.bom.size() + f.maps.size()) as usize)
+        let roma = self.roma.as_ref().ok_or_else(|| gpu_error(self.id, "not built"))?;
+        Ok(roma.memory_bytes().map_err(|e| gpu_error(self.id, e))? as usize)
     }
 }
 

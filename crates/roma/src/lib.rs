@@ -33,6 +33,7 @@ pub use occupancy::{OccupancyMap, Voxelization};
 pub use word::Word;
 
 use glimpse_core::{Aabb, Frame, Ray, Rng, Vec3, Vec4};
+use glimpse_render::focus::{ExactTriangles, FocusCache};
 use glimpse_render::{ParamError, Params, Stopwatch, TechniqueInfo};
 use glimpse_scene::SceneFrame;
 use glimpse_trace::{ClosestHit, Hit, Visibility};
@@ -61,6 +62,10 @@ pub struct RomaParams {
     pub dda_steps: u32,
     /// `n=auto`: `n` is chosen from the scene at the first prepare ([`RomaParams::resolve_n`]).
     pub auto_n: bool,
+    /// `focus=auto` (ours; the paper's cube holds the whole scene): the grid surrounds the
+    /// triangles other than the scene's supporting planes, which are tested exactly
+    /// ([`glimpse_render::focus`]), where that box is much smaller than the scene's.
+    pub focus: bool,
 }
 
 impl Default for RomaParams {
@@ -73,13 +78,14 @@ impl Default for RomaParams {
             origin_offset_cells: 1.5,
             dda_steps: 8,
             auto_n: false,
+            focus: false,
         }
     }
 }
 
 impl RomaParams {
-    /// Reads `resolution`, `n`, `voxelization`, `jitter`, `offset` and (when `with_dda`)
-    /// `dda_steps`, with `self` as the defaults.
+    /// Reads `resolution`, `n`, `voxelization`, `jitter`, `offset`, `focus` (`auto` unless
+    /// `profile=paper`) and (when `with_dda`) `dda_steps`, with `self` as the defaults.
     pub fn read(self, params: &Params, with_dda: bool) -> Result<Self, ParamError> {
         let resolution = params.u32("resolution", self.resolution, 32, 128)?;
         if ![32, 64, 128].contains(&resolution) {
@@ -105,6 +111,7 @@ impl RomaParams {
             jitter: params.bool("jitter", self.jitter)?,
             origin_offset_cells: params.f32("offset", self.origin_offset_cells, 0.0, 16.0)?,
             dda_steps: if with_dda { params.u32("dda_steps", self.dda_steps, 1, 1024)? } else { self.dda_steps },
+            focus: params.choice("focus", if paper { "scene" } else { "auto" }, &["auto", "scene"])? == "auto",
         })
     }
 }
@@ -143,6 +150,8 @@ impl RomaParams {
 /// Wall time of one build, by stage.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct BuildTimings {
+    /// Finding the supporting planes (`focus=auto`).
+    pub focus_ms: f64,
     pub voxelize_ms: f64,
     pub generate_ms: f64,
 }
@@ -182,6 +191,11 @@ pub struct RomaMaps<W: Word> {
     /// The OMs, layer-major: word `k·R² + y·R + x`.
     pub maps: Vec<W>,
     pub origin_offset_cells: f32,
+    /// The supporting planes a focused grid leaves out, tested exactly by every query (empty
+    /// where the grid holds the whole scene).
+    pub exact: ExactTriangles,
+    /// The focus's share of the scene's diagonal, where the grid is focused.
+    pub focus_share: Option<f32>,
     pub timings: BuildTimings,
 }
 
@@ -191,7 +205,8 @@ impl<W: Word> RomaMaps<W> {
         let axes: Vec<Frame> = candidates.dirs.iter().map(|&d| grid::om_axes(d)).collect();
         let maps = generate::generate_all(&bom, &axes);
         let to_map = axes.iter().map(|a| MapTransform::new(&grid, a)).collect();
-        Self { grid, candidates, axes, to_map, bom, maps, origin_offset_cells, timings: BuildTimings::default() }
+        let (exact, focus_share) = (ExactTriangles::default(), None);
+        Self { grid, candidates, axes, to_map, bom, maps, origin_offset_cells, exact, focus_share, timings: BuildTimings::default() }
     }
 
     #[inline]
@@ -229,6 +244,7 @@ impl<W: Word> RomaMaps<W> {
     #[inline]
     pub fn any_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> bool {
         self.any_hit_column(k, sign > 0.0, self.to_map[k].apply(origin), t_max / self.grid.cell_size_world)
+            || self.exact.any_hit(origin, self.candidates.dirs[k] * sign, t_max)
     }
 
     /// Snapped closest hit along `sign · d_k`: world distance from `origin` (≥ 0) to Alg. 2's
@@ -237,10 +253,30 @@ impl<W: Word> RomaMaps<W> {
     pub fn closest_hit_snapped(&self, k: usize, sign: f32, origin: Vec3, t_max: f32) -> Option<f32> {
         let plus = sign > 0.0;
         let q = self.to_map[k].apply(origin);
-        let (u, t_start, t_end) = self.column(k, plus, q, t_max / self.grid.cell_size_world)?;
-        let z_hit = trace::closest_hit_slices(trace::range_bits(u, t_start, t_end), t_start.max(t_end), plus)?;
-        let cells = if plus { z_hit - q.z } else { q.z - z_hit };
-        Some(cells.max(0.0) * self.grid.cell_size_world)
+        let in_grid = self.column(k, plus, q, t_max / self.grid.cell_size_world).and_then(|(u, t_start, t_end)| {
+            let z_hit = trace::closest_hit_slices(trace::range_bits(u, t_start, t_end), t_start.max(t_end), plus)?;
+            let cells = if plus { z_hit - q.z } else { q.z - z_hit };
+            Some(cells.max(0.0) * self.grid.cell_size_world)
+        });
+        // The nearer of the two; the exact search is not cut at the grid's hit, so that its
+        // answer does not depend on the grid's (the GPU port takes the same minimum).
+        match (in_grid, self.exact.closest_hit(origin, self.candidates.dirs[k] * sign, t_max)) {
+            (Some(g), Some(e)) => Some(if e < g { e } else { g }),
+            (g, e) => g.or(e),
+        }
+    }
+
+    /// The exact part of [`RomaMaps::occluded_ray`]: the planes a focused grid leaves out, along
+    /// the snapped ray from the origin moved `origin_offset_cells` along it, `t_max` shortened
+    /// at both ends ([`occluded_exact_ray`]).
+    #[inline]
+    fn exact_occluded(&self, k: usize, sign: f32, ray: &Ray, t_max: f32) -> bool {
+        if self.exact.is_empty() {
+            return false;
+        }
+        let offset = self.origin_offset_cells * self.grid.cell_size_world;
+        occluded_exact_ray(self.candidates.dirs[k] * sign, ray.origin, t_max, offset)
+            .is_some_and(|(r, t)| self.exact.any_hit(r.origin, r.dir, t))
     }
 
     /// [`Visibility::occluded`] for a bare ray: snapped, the origin moved `origin_offset_cells`
@@ -257,7 +293,7 @@ impl<W: Word> RomaMaps<W> {
         let mut q = self.to_map[k].apply(ray.origin);
         q.z += sign * self.origin_offset_cells;
         let depth = t_max / self.grid.cell_size_world - 2.0 * self.origin_offset_cells;
-        depth > 0.0 && self.any_hit_column(k, sign > 0.0, q, depth)
+        (depth > 0.0 && self.any_hit_column(k, sign > 0.0, q, depth)) || self.exact_occluded(k, sign, ray, t_max)
     }
 
     /// [`RomaMaps::occluded_ray`] for a batch: stratum selection runs over [`directions::LANES`]
@@ -281,7 +317,9 @@ impl<W: Word> RomaMaps<W> {
                 let mut q = q[l];
                 q.z += sign[l] * self.origin_offset_cells;
                 let depth = rs[l].1 / self.grid.cell_size_world - 2.0 * self.origin_offset_cells;
-                os[l] = depth > 0.0 && self.any_hit_column(k[l] as usize, sign[l] > 0.0, q, depth);
+                let k = k[l] as usize;
+                os[l] =
+                    (depth > 0.0 && self.any_hit_column(k, sign[l] > 0.0, q, depth)) || self.exact_occluded(k, sign[l], &rs[l].0, rs[l].1);
             }
         }
         for ((ray, t_max), o) in chunks.remainder().iter().zip(outs.into_remainder()) {
@@ -297,14 +335,12 @@ impl<W: Word> RomaMaps<W> {
         };
         let (k, _) = self.candidates.select(dir);
         let seg = MapSegment { from: self.to_map[k].apply(from), to: self.to_map[k].apply(to) };
-        let Some(seg) = seg.clip(W::BITS as f32) else {
-            return false;
-        };
-        trace::any_hit_dda(seg, max_steps, |x, y| self.word(k, x, y))
+        seg.clip(W::BITS as f32).is_some_and(|seg| trace::any_hit_dda(seg, max_steps, |x, y| self.word(k, x, y)))
+            || self.exact.any_hit(from, dir, (to - from).length())
     }
 
     pub fn memory_bytes(&self) -> usize {
-        self.maps.len() * std::mem::size_of::<W>() + self.bom.memory_bytes()
+        self.maps.len() * std::mem::size_of::<W>() + self.bom.memory_bytes() + self.exact.memory_bytes()
     }
 }
 
@@ -340,13 +376,32 @@ macro_rules! with_maps {
 impl Roma {
     /// Builds ROMA for `frame`: BOM (jittered for `frame_index`), candidates (drawn for
     /// `frame_index` from `seed`), Generate.
+    /// With `params.focus`, the grid surrounds the triangles other than the supporting planes
+    /// (where that pays, [`Focus::for_all_rays`]) and those planes are tested exactly.
     pub fn build(frame: &SceneFrame, params: &RomaParams, seed: u64, frame_index: u32) -> Roma {
+        Self::build_cached(frame, params, &mut FocusCache::default(), seed, frame_index)
+    }
+
+    /// [`Roma::build`] with the focus from `cache` (a technique's, kept across its frames).
+    pub fn build_cached(frame: &SceneFrame, params: &RomaParams, cache: &mut FocusCache, seed: u64, frame_index: u32) -> Roma {
         let sw = Stopwatch::start();
         let triangles = frame.world_triangles();
-        let mut roma = Self::build_from_triangles(&triangles, frame.bounds, params, seed, frame_index);
+        let gather_ms = sw.ms();
+        let sw = Stopwatch::start();
+        let focus = if params.focus { cache.for_all_rays(frame, &triangles) } else { None };
+        let focus_ms = sw.ms();
+        let mut roma = match &focus {
+            None => Self::build_from_triangles(&triangles, frame.bounds, params, seed, frame_index),
+            Some(f) => {
+                let (inside, exact) = f.split(&triangles);
+                let mut roma = Self::build_from_triangles(&inside, f.bounds, params, seed, frame_index);
+                let share = f.share_of(frame.bounds);
+                with_maps!(&mut roma, m => (m.exact, m.focus_share) = (exact, Some(share)));
+                roma
+            }
+        };
         // Gathering the world-space triangles belongs to the BOM pass.
-        let gather_ms = sw.ms() - roma.timings().voxelize_ms - roma.timings().generate_ms;
-        with_maps!(&mut roma, m => m.timings.voxelize_ms += gather_ms.max(0.0));
+        with_maps!(&mut roma, m => (m.timings.voxelize_ms, m.timings.focus_ms) = (m.timings.voxelize_ms + gather_ms, focus_ms));
         roma
     }
 
@@ -374,6 +429,11 @@ impl Roma {
 
     pub fn timings(&self) -> BuildTimings {
         with_maps!(self, m => m.timings)
+    }
+
+    /// The focus's share of the scene's diagonal where the grid is focused.
+    pub fn focus_share(&self) -> Option<f32> {
+        with_maps!(self, m => m.focus_share)
     }
 
     pub fn memory_bytes(&self) -> usize {
@@ -421,6 +481,15 @@ impl Roma {
     }
 }
 
+/// The ray a bare `occluded_ray` query traces through the exact triangles: from `origin` moved
+/// `offset` (world) along the snapped direction `d`, a finite `t_max` shortened by `offset` at
+/// both ends; `None` when nothing is left. Shared with the GPU port's exact pass.
+#[inline]
+pub fn occluded_exact_ray(d: Vec3, origin: Vec3, t_max: f32, offset: f32) -> Option<(Ray, f32)> {
+    let t = if t_max.is_finite() { t_max - 2.0 * offset } else { t_max };
+    (t > 0.0).then(|| (Ray::new(origin + d * offset, d), t))
+}
+
 /// The grid (jittered for `frame_index`) and the candidates (drawn for `frame_index` from
 /// `seed`) of one frame: what [`Roma::build_from_triangles`] and the GPU build share.
 pub fn frame_grid_and_candidates(bounds: Aabb, params: &RomaParams, seed: u64, frame_index: u32) -> (Grid, CandidateSet) {
@@ -436,7 +505,7 @@ fn build_maps<W: Word>(triangles: &[[Vec3; 3]], grid: Grid, candidates: Candidat
     let voxelize_ms = sw.ms();
     let sw = Stopwatch::start();
     let mut maps = RomaMaps::generate(grid, bom, candidates, params.origin_offset_cells);
-    maps.timings = BuildTimings { voxelize_ms, generate_ms: sw.ms() };
+    maps.timings = BuildTimings { voxelize_ms, generate_ms: sw.ms(), ..Default::default() };
     maps
 }
 

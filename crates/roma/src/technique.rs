@@ -32,6 +32,7 @@ use crate::{Accumulator, DEFAULT_ACCUMULATE, Roma, RomaParams};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::focus::FocusCache;
 use glimpse_render::rsm::{Rsm, rsm_lights};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::Scene;
@@ -44,6 +45,7 @@ struct RomaState {
     params: RomaParams,
     settings: Settings,
     roma: Option<Roma>,
+    focus: FocusCache,
     accumulator: Accumulator,
 }
 
@@ -52,7 +54,8 @@ impl RomaState {
         direct::require_spp(settings)?;
         let params_read = defaults.read(params, with_dda)?;
         let window = params.u32("accumulate", DEFAULT_ACCUMULATE, 1, 1 << 20)?;
-        Ok(Self { params: params_read, settings: *settings, roma: None, accumulator: Accumulator::new(window) })
+        let focus = FocusCache::default();
+        Ok(Self { params: params_read, settings: *settings, roma: None, focus, accumulator: Accumulator::new(window) })
     }
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
@@ -61,15 +64,22 @@ impl RomaState {
         let p = &self.params;
         let what = format!("ROMA: {}² occupancy maps of {}³ bits", p.n, p.resolution);
         glimpse_core::memory_budget::check(what, p.estimated_bytes())?;
-        let roma = Roma::build(&ctx.frame, &self.params, self.settings.seed, ctx.frame_index);
+        let roma = Roma::build_cached(&ctx.frame, &self.params, &mut self.focus, self.settings.seed, ctx.frame_index);
         let t = roma.timings();
         let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
+        if p.focus {
+            stats.stage("focus", t.focus_ms);
+        }
         stats.stage("bom", t.voxelize_ms);
         stats.stage("generate", t.generate_ms);
         // The resolution is the paper's maximum (128-bit texels), not chosen from the scene: the
         // cell it gives this scene is what bounds the error (reported, as the voxel array's).
         stats.metrics.push(("cell_m".to_owned(), roma.cell_size_world() as f64));
         stats.metrics.push(("n".to_owned(), p.n as f64));
+        if let Some(share) = roma.focus_share() {
+            // The focus's share of the scene's diagonal: what it did to the cell.
+            stats.metrics.push(("focus_share".to_owned(), share as f64));
+        }
         if let Some(e) = escape {
             stats.metrics.push(("escape_fraction".to_owned(), e as f64));
         }

@@ -12,6 +12,8 @@ use glimpse_roma::gpu::{self, GpuQuery, GpuRoma};
 use glimpse_roma::{Roma, RomaParams, with_maps};
 use glimpse_trace::{ExactTracer, GBuffer};
 
+mod common;
+
 /// The GPU context, or `None` after printing why the test is skipped.
 fn context(test: &str) -> Option<GpuContext> {
     GpuContext::for_test(test)
@@ -278,6 +280,70 @@ fn ao_roma_frame_equals_the_cpu() {
         assert!(mse.sqrt() <= 1e-3, "{name}: RMSE {}", mse.sqrt());
         assert!(differ * 1000 <= g.len(), "{name}: {differ} pixels differ");
     }
+}
+
+/// `focus=auto` on the GPU (`GpuRoma::build_frame`): the grid around the ball, the 400 m ground
+/// traced by the exact GPU tracer after each query. Every query form and one `ao-roma` frame
+/// agree with the CPU's focused build, and the ground answers a share of them.
+#[test]
+fn a_focused_frame_agrees_with_the_cpu() {
+    let Some(ctx) = context("focused frame") else { return };
+    let mut gpu = GpuRoma::new(&ctx).unwrap();
+    let scene = common::ball_over_ground();
+    let frame = scene.at(0.0);
+    let params = RomaParams { focus: true, ..RomaParams::default() };
+    let (seed, frame_index) = (4, 1);
+    let cpu = Roma::build(&frame, &params, seed, frame_index);
+    gpu.build_frame(&ctx, &frame, &params, seed, frame_index, &mut GpuTimer::new(&ctx, 3)).unwrap();
+    assert!(cpu.focus_share().is_some() && gpu.focus_share == cpu.focus_share(), "{:?} {:?}", cpu.focus_share(), gpu.focus_share);
+    let mut rays = random_rays(Vec3::new(-8.0, -0.5, -8.0), Vec3::new(8.0, 3.0, 8.0), 20_000, 11);
+    let tracer = ExactTracer::build(&frame);
+    let g = GBuffer::new(&frame, &tracer, &scene.camera_or_default(4.0 / 3.0), 48, 36);
+    let offset = cpu.cell_size_world() * params.origin_offset_cells;
+    let (ao, _) = gpu::ao_queries(&g, 4, f32::INFINITY, offset, seed, frame_index);
+    let queries: Vec<GpuQuery> = rays.iter().map(|(r, t)| GpuQuery::new(r.origin, r.dir, *t)).chain(ao.iter().copied()).collect();
+    let snapped = |q: &GpuQuery| {
+        let (k, sign) = cpu.select(q.dir.into());
+        (k, sign, Vec3::from(q.origin), q.t_max)
+    };
+    let by_ground = queries
+        .iter()
+        .filter(|q| {
+            let (k, sign, o, t) = snapped(q);
+            with_maps!(&cpu, m => m.exact.any_hit(o, cpu.candidates().dirs[k] * sign, t))
+        })
+        .count();
+    println!("focused: {} exact triangles, {by_ground} of {} queries meet the ground", with_maps!(&cpu, m => m.exact.len()), queries.len());
+    assert!(by_ground * 10 > queries.len(), "the exact pass must be exercised");
+
+    let any = gpu.any_hit_snapped(&ctx, &queries).unwrap();
+    let differ = queries.iter().zip(&any).filter(|(q, g)| {
+        let (k, sign, o, t) = snapped(q);
+        cpu.any_hit_snapped(k, sign, o, t) != **g
+    });
+    check_agreement("focused any-hit", differ.count(), queries.len());
+    let closest = gpu.closest_hit_snapped(&ctx, &queries).unwrap();
+    let differ = queries.iter().zip(&closest).filter(|(q, g)| {
+        let (k, sign, o, t) = snapped(q);
+        cpu.closest_hit_snapped(k, sign, o, t) != **g
+    });
+    check_agreement("focused closest hit (bit for bit)", differ.count(), queries.len());
+    rays.extend(ao.iter().map(|q| (Ray::new(Vec3::from(q.origin), Vec3::from(q.dir)), 6.0)));
+    let occluded = gpu.occluded(&ctx, &rays).unwrap();
+    let differ = rays.iter().zip(&occluded).filter(|((r, t), g)| with_maps!(&cpu, m => m.occluded_ray(r, *t)) != **g);
+    check_agreement("focused occluded_ray", differ.count(), rays.len());
+    let segments: Vec<GpuQuery> = rays.iter().map(|(r, _)| GpuQuery::segment(r.origin, r.origin + r.dir * 3.0)).collect();
+    let dda = gpu.any_hit_unsnapped(&ctx, &segments, 8).unwrap();
+    let differ = segments.iter().zip(&dda).filter(|(q, g)| cpu.any_hit_unsnapped(q.origin.into(), q.dir.into(), 8) != **g);
+    check_agreement("focused dda", differ.count(), segments.len());
+
+    let mut cpu_image = Image::new(g.width, g.height);
+    glimpse_roma::technique::ambient_occlusion(&cpu, &g, 4, f32::INFINITY, seed, frame_index, &Progress::default(), &mut cpu_image);
+    let gpu_image = gpu::ambient_occlusion(&ctx, &mut gpu, &g, 4, f32::INFINITY, seed, frame_index).unwrap();
+    let differ = cpu_image.pixels.iter().zip(&gpu_image.pixels).filter(|(a, b)| a != b).count();
+    println!("focused ao-roma frame: {differ} of {} pixels differ", g.len());
+    assert_eq!(differ, 0);
+    ctx.check().unwrap();
 }
 
 /// Bad input is an error, not a panic.

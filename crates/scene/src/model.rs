@@ -187,6 +187,11 @@ impl Scene {
         self.instances.iter().map(|i| self.meshes[i.mesh as usize].indices.len()).sum()
     }
 
+    /// True when no instance moves and no mesh deforms (lights may move).
+    pub fn geometry_is_static(&self) -> bool {
+        self.instances.iter().all(|i| i.motion.is_static()) && self.meshes.iter().all(|m| m.deformation.is_none())
+    }
+
     /// True when anything moves or deforms over time.
     pub fn is_animated(&self) -> bool {
         self.instances.iter().any(|i| !i.motion.is_static())

@@ -259,7 +259,7 @@ pub fn read_focus(params: &Params) -> Result<bool, RenderError> {
 
 /// Whether the scene's geometry is the same at every time.
 pub fn is_static(scene: &Scene) -> bool {
-    scene.instances.iter().all(|i| i.motion.is_static()) && scene.meshes.iter().all(|m| m.deformation.is_none())
+    scene.geometry_is_static()
 }
 
 impl Technique for LightsVoxArray {
@@ -300,7 +300,7 @@ impl Technique for LightsVoxArray {
             let triangles = ctx.frame.world_triangles();
             let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.lights as usize)];
             self.focus_box = if self.focus { stats.time("focus", || Focus::occluders(&triangles, ctx.frame.bounds, lights)) } else { None };
-            let focus = self.focus_box.map(|f| f.bounds);
+            let focus = self.focus_box.as_ref().map(|f| f.bounds);
             // A static scene's compressed array is cached on disk (see `disk_cache`).
             let cache = if self.disk_cache && self.params.compress.is_some() { glimpse_render::structure_cache_dir() } else { None };
             let path = cache.map(|dir| disk_cache::path_for(&dir, &triangles, focus, &self.params));
@@ -328,10 +328,9 @@ impl Technique for LightsVoxArray {
             // The grid's cell, in the stats so a report can say what resolution bounds the error.
             stats.metrics.push(("cell_m".to_owned(), a.grid().cell_size_world() as f64));
         }
-        if let Some(f) = self.focus_box {
+        if let Some(f) = &self.focus_box {
             // The focus's share of the scene's diagonal: what it did to the cell.
-            let share = f.bounds.extent().length() / ctx.frame.bounds.extent().length();
-            stats.metrics.push(("focus_share".to_owned(), share as f64));
+            stats.metrics.push(("focus_share".to_owned(), f.share_of(ctx.frame.bounds) as f64));
         }
         Ok(stats)
     }
