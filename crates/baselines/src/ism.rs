@@ -5,7 +5,8 @@
 //!
 //! Gaps filled: the lights here are omnidirectional point lights, so each map is an octahedral
 //! map of the whole sphere (the original uses paraboloid maps of VPL hemispheres); a directional
-//! light gets an orthographic map fitted to the scene's bounds ([`crate::ortho`]). Each point is
+//! light gets an orthographic map fitted to the scene's bounds ([`crate::ortho`]; not to the
+//! occluders' box as `lights-shadowmap`'s `focus`, see [`PerLightMaps::FOCUS`]). Each point is
 //! splatted with its distance as a square of texels covering its share of the surface area seen
 //! from the light (the area per point × |cos| at the point over the distance², against a texel's
 //! solid angle; at most 9×9 texels), as ISM's points are drawn with a distance-dependent size: a one-texel splat
@@ -18,10 +19,10 @@
 //! distances with the same tolerance. `prepare` builds the maps; `render` only looks them up.
 
 use crate::ortho::OrthoMap;
-use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
+use crate::per_light_maps::{LightsWithMaps, Occluders, PerLightMaps};
 use glimpse_core::{Rng, Vec2, Vec3};
 use glimpse_render::{ParamError, Params, TechniqueInfo};
-use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
+use glimpse_scene::{LightKind, Scene, WorldLight};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -95,16 +96,16 @@ fn splat(map: &mut [f32], r: usize, x: f32, y: f32, radius: f32, depth: f32) {
 }
 
 impl ImperfectShadowMaps {
-    pub fn build(frame: &SceneFrame, lights: &[WorldLight], p: &IsmParams) -> Self {
-        let tris = frame.world_triangles();
-        let pool = sample_points(&tris, 8 * p.points_per_map as usize, p.seed);
+    pub fn build(occluders: &Occluders, lights: &[WorldLight], p: &IsmParams) -> Self {
+        let tris = &occluders.triangles;
+        let pool = sample_points(tris, 8 * p.points_per_map as usize, p.seed);
         let total_area: f64 = tris.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64).sum();
         let r = p.resolution as usize;
         let mut depth = vec![f32::INFINITY; lights.len() * r * r];
         let projections: Vec<IsmProjection> = lights
             .iter()
             .map(|l| match l.kind {
-                LightKind::Directional => IsmProjection::Ortho(OrthoMap::fit(l.direction, &frame.bounds, p.resolution)),
+                LightKind::Directional => IsmProjection::Ortho(OrthoMap::fit(l.direction, &occluders.bounds, p.resolution)),
                 LightKind::Point | LightKind::Spot { .. } => IsmProjection::Octahedral(l.position),
             })
             .collect();
@@ -241,13 +242,17 @@ impl PerLightMaps for ImperfectShadowMaps {
     type Params = IsmParams;
     const ID: &'static str = "lights-ism";
     const STAGE: &'static str = "imperfect shadow maps";
+    /// Not focused: pull-push fills every empty texel from its neighbours, so a map without the
+    /// ground under its objects would be filled with their depths (measured on `outdoor-sun`:
+    /// ε_s 3.7 % → 31.5 %); ISM's point cloud must cover the receivers too.
+    const FOCUS: bool = false;
 
     fn read_params(defaults: IsmParams, params: &Params) -> Result<IsmParams, ParamError> {
         defaults.read(params)
     }
 
-    fn build(frame: &SceneFrame, lights: &[WorldLight], p: &IsmParams) -> Self {
-        ImperfectShadowMaps::build(frame, lights, p)
+    fn build(occluders: &Occluders, lights: &[WorldLight], p: &IsmParams) -> Self {
+        ImperfectShadowMaps::build(occluders, lights, p)
     }
 
     fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
@@ -311,7 +316,7 @@ mod tests {
         let maps = std::sync::OnceLock::new();
         let p = IsmParams::default();
         let (a, n) = crate::shadowmap::tests::agreement(|frame, lights, l, pt, nrm| {
-            maps.get_or_init(|| ImperfectShadowMaps::build(frame, lights, &p)).shadowed(l, pt, nrm)
+            maps.get_or_init(|| ImperfectShadowMaps::build(&Occluders::whole(frame), lights, &p)).shadowed(l, pt, nrm)
         });
         println!(
             "imperfect shadow maps 128², 11,000 points, Cornell box, 8 point lights: {:.2}% of {n} facing decisions agree with exact rays",

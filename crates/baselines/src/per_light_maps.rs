@@ -4,13 +4,46 @@
 //! after the render, untimed, the decisions are measured against exact shadow rays (ε_v, ε_s in
 //! `Stats::metrics`, param `epsilon`).
 
-use glimpse_core::{Image, Vec3};
+use glimpse_core::{Aabb, Image, Vec3};
 use glimpse_render::direct::{self, Shading};
+use glimpse_render::focus::Focus;
 use glimpse_render::metrics::epsilon;
 use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique};
 use glimpse_scene::{Scene, SceneFrame, WorldLight};
 use glimpse_trace::GBuffer;
 use std::f32::consts::PI;
+
+/// What the maps must hold: the triangles that may block a shadow ray, and their box.
+///
+/// `focus=auto` (ours; `profile=paper`/`focus=scene`: the whole scene): a scene's supporting
+/// planes cannot block a shadow ray toward these lights ([`Focus::occluders`]); where the other
+/// triangles' box is much smaller than the scene's, the maps hold only those, and a directional
+/// light's orthographic map is fitted to their box, as engines fit a shadow map to its casters
+/// (a point whose projection falls outside it has no caster above it). The cube maps' texels
+/// are angles, so for them only the dropped planes change anything.
+pub struct Occluders {
+    pub triangles: Vec<[Vec3; 3]>,
+    pub bounds: Aabb,
+    /// The focus's share of the scene's diagonal, where one is used.
+    pub focus_share: Option<f32>,
+}
+
+impl Occluders {
+    /// Every triangle of `frame`, the scene's bounds.
+    pub fn whole(frame: &SceneFrame) -> Self {
+        Self { triangles: frame.world_triangles(), bounds: frame.bounds, focus_share: None }
+    }
+
+    /// With `focus`, the triangles that may block a shadow ray toward `lights` where they are
+    /// much smaller than the scene; otherwise [`Occluders::whole`].
+    pub fn of(frame: &SceneFrame, lights: &[WorldLight], focus: bool) -> Self {
+        let triangles = frame.world_triangles();
+        match if focus { Focus::occluders(&triangles, frame.bounds, lights) } else { None } {
+            Some(f) => Self { triangles: f.inside(&triangles), bounds: f.bounds, focus_share: Some(f.share_of(frame.bounds)) },
+            None => Self { triangles, bounds: frame.bounds, focus_share: None },
+        }
+    }
+}
 
 /// Per-light shadow maps of one kind.
 pub trait PerLightMaps: Send + Sync + Sized + 'static {
@@ -19,8 +52,10 @@ pub trait PerLightMaps: Send + Sync + Sized + 'static {
     const ID: &'static str;
     /// Name of the `prepare` stage.
     const STAGE: &'static str;
+    /// Whether the maps may leave out the supporting planes (`focus`, [`Occluders::of`]).
+    const FOCUS: bool;
     fn read_params(defaults: Self::Params, params: &Params) -> Result<Self::Params, ParamError>;
-    fn build(frame: &SceneFrame, lights: &[WorldLight], p: &Self::Params) -> Self;
+    fn build(occluders: &Occluders, lights: &[WorldLight], p: &Self::Params) -> Self;
     /// Whether light `l` is hidden from the surface point `p` with normal `n`.
     fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool;
     fn memory_bytes(&self) -> usize;
@@ -38,6 +73,8 @@ pub struct LightsWithMaps<M: PerLightMaps> {
     /// Measure ε_v / ε_s of the shadow decisions against exact rays after each render (untimed;
     /// reported in `Stats::metrics`, so `glimpse eval` lists them).
     pub epsilon: bool,
+    /// `focus=auto`: the maps hold the occluders only ([`Occluders::of`]).
+    pub focus: bool,
 }
 
 impl<M: PerLightMaps> LightsWithMaps<M> {
@@ -49,6 +86,10 @@ impl<M: PerLightMaps> LightsWithMaps<M> {
             settings: *settings,
             maps: None,
             epsilon: params.bool("epsilon", true)?,
+            focus: M::FOCUS && {
+                let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+                params.choice("focus", if paper { "scene" } else { "auto" }, &["auto", "scene"])? == "auto"
+            },
         })
     }
 
@@ -67,8 +108,12 @@ impl<M: PerLightMaps> Technique for LightsWithMaps<M> {
         let lights = self.active_lights(ctx);
         let (what, bytes) = M::estimate(lights.len(), &self.params);
         glimpse_core::memory_budget::check(format!("{}: {what}", M::ID), bytes)?;
-        self.maps = Some(stats.time(M::STAGE, || M::build(&ctx.frame, lights, &self.params)));
+        let occluders = stats.time("occluders", || Occluders::of(&ctx.frame, lights, self.focus));
+        self.maps = Some(stats.time(M::STAGE, || M::build(&occluders, lights, &self.params)));
         stats.memory_bytes = self.maps.as_ref().map_or(0, |m| m.memory_bytes());
+        if let Some(share) = occluders.focus_share {
+            stats.metrics.push(("focus_share".to_owned(), share as f64));
+        }
         Ok(stats)
     }
 

@@ -8,14 +8,15 @@
 //! perspective-correct depth at texel centres). The lookup moves the shaded point along its
 //! normal by `bias` texel footprints at its depth and compares with the same tolerance.
 //! A directional light gets one orthographic map of `resolution²` texels along its direction,
-//! fitted to the scene's bounds ([`crate::ortho`]), with the same bias in its texels. `prepare`
-//! builds every map (in parallel over lights); `render` only looks them up.
+//! fitted to the scene's bounds ([`crate::ortho`]; with `focus=auto`, ours, to the occluders'
+//! box, [`Occluders`]), with the same bias in its texels. `prepare` builds every map (in
+//! parallel over lights); `render` only looks them up.
 
 use crate::ortho::OrthoMap;
-use crate::per_light_maps::{LightsWithMaps, PerLightMaps};
+use crate::per_light_maps::{LightsWithMaps, Occluders, PerLightMaps};
 use glimpse_core::Vec3;
 use glimpse_render::{ParamError, Params, TechniqueInfo};
-use glimpse_scene::{LightKind, Scene, SceneFrame, WorldLight};
+use glimpse_scene::{LightKind, Scene, WorldLight};
 use rayon::prelude::*;
 
 /// Shadow-map settings. `Default`: 128² per face (the paper's per-scene values range 36–384;
@@ -99,23 +100,23 @@ pub struct CubeShadowMaps {
 const NEAR: f32 = 1e-3;
 
 impl CubeShadowMaps {
-    pub fn build(frame: &SceneFrame, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
-        let tris = frame.world_triangles();
+    pub fn build(occluders: &Occluders, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
+        let tris = &occluders.triangles;
         let r = p.resolution as usize;
         let per_light = 6 * r * r;
         let mut depth = vec![f32::INFINITY; lights.len() * per_light];
-        let projections: Vec<LightProjection> = lights.iter().map(|l| LightProjection::of(l, &frame.bounds, p.resolution)).collect();
+        let projections: Vec<LightProjection> = lights.iter().map(|l| LightProjection::of(l, &occluders.bounds, p.resolution)).collect();
         depth.par_chunks_mut(per_light).zip(&projections).for_each(|(maps, projection)| {
             let lp = match projection {
                 LightProjection::Cube(lp) => lp,
                 LightProjection::Ortho(m) => {
-                    for t in &tris {
+                    for t in tris {
                         m.raster(&mut maps[..r * r], t);
                     }
                     return;
                 }
             };
-            for t in &tris {
+            for t in tris {
                 let d = t.map(|v| v - *lp);
                 for face in 0..6 {
                     let q = d.map(|v| face_coords(face, v));
@@ -230,13 +231,14 @@ impl PerLightMaps for CubeShadowMaps {
     type Params = ShadowMapParams;
     const ID: &'static str = "lights-shadowmap";
     const STAGE: &'static str = "shadow maps";
+    const FOCUS: bool = true;
 
     fn read_params(defaults: ShadowMapParams, params: &Params) -> Result<ShadowMapParams, ParamError> {
         defaults.read(params)
     }
 
-    fn build(frame: &SceneFrame, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
-        CubeShadowMaps::build(frame, lights, p)
+    fn build(occluders: &Occluders, lights: &[WorldLight], p: &ShadowMapParams) -> Self {
+        CubeShadowMaps::build(occluders, lights, p)
     }
 
     fn shadowed(&self, l: usize, p: Vec3, n: Vec3) -> bool {
@@ -259,7 +261,7 @@ impl LightsShadowMap {
             id: "lights-shadowmap",
             family: "many lights",
             reference: Some("lights-exact"),
-            description: "every light at every pixel through one cube shadow map per light (the voxel-array paper's SM baseline); resolution, bias, lights, epsilon",
+            description: "every light at every pixel through one cube shadow map per light (the voxel-array paper's SM baseline); resolution, bias, lights, epsilon, focus (ours: auto, scene)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "lights-shadowmap", glimpse_render::Need::PunctualLights)?;
                 Ok(Box::new(LightsShadowMap::new(scene, settings, params)?))
@@ -272,6 +274,7 @@ impl LightsShadowMap {
 pub(crate) mod tests {
     use super::*;
     use glimpse_render::direct::{self, Shading};
+    use glimpse_scene::SceneFrame;
     use glimpse_trace::{ExactTracer, GBuffer};
 
     /// Agreement with exact shadow rays on the Cornell box with eight point lights inside it.
@@ -305,7 +308,7 @@ pub(crate) mod tests {
     fn check_01_cube_shadow_maps_agree_with_exact_rays() {
         let maps = std::sync::OnceLock::new();
         let (a, n) = agreement(|frame, lights, l, p, nrm| {
-            maps.get_or_init(|| CubeShadowMaps::build(frame, lights, &ShadowMapParams::default())).shadowed(l, p, nrm)
+            maps.get_or_init(|| CubeShadowMaps::build(&Occluders::whole(frame), lights, &ShadowMapParams::default())).shadowed(l, p, nrm)
         });
         println!("cube shadow maps 128², Cornell box, 8 point lights: {:.2}% of {n} facing decisions agree with exact rays", 100.0 * a);
         assert!(a > 0.95);

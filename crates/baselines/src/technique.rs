@@ -71,7 +71,7 @@ impl AoDf {
             id: "ao-df",
             family: "ambient occlusion",
             reference: Some("ao-exact"),
-            description: "distance-field AO (the ROMA paper's baseline): 3D jump flooding on the same BOM, 3 mips, sphere tracing (resolution=128 steps=64)",
+            description: "distance-field AO (the ROMA paper's baseline): 3D jump flooding on the same BOM, 3 mips, sphere tracing (resolution=128 steps=64 focus=auto as ao-roma)",
             create: |_: &Scene, settings, params| Ok(Box::new(AoDf::new(settings, params)?)),
         }
     }
@@ -131,7 +131,7 @@ impl SoftDf {
             id: "soft-df",
             family: "soft shadows",
             reference: Some("soft-exact"),
-            description: "distance-field soft shadows (the ROMA paper's baseline): area-light samples as soft-exact, sphere-traced shadow rays (steps=16)",
+            description: "distance-field soft shadows (the ROMA paper's baseline): area-light samples as soft-exact, sphere-traced shadow rays (steps=16 focus=auto)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "soft-df", glimpse_render::Need::AreaLights)?;
                 Ok(Box::new(SoftDf::new(settings, params)?))

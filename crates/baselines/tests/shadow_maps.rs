@@ -20,8 +20,12 @@ fn sun_over_blocker() -> Scene {
 
 /// (ε_v, ε_s, signed ε_s) in % of `id` on `scene`, measured by the technique against exact rays.
 fn epsilon(scene: &Scene, id: &str, time: f32, size: u32) -> (f64, f64, f64) {
+    epsilon_with(scene, id, time, size, &Params::default())
+}
+
+fn epsilon_with(scene: &Scene, id: &str, time: f32, size: u32, params: &Params) -> (f64, f64, f64) {
     let registry = Registry::new(glimpse_baselines::techniques());
-    let mut t = registry.create(id, scene, &Settings::default(), &Params::default()).unwrap();
+    let mut t = registry.create(id, scene, &Settings::default(), params).unwrap();
     let ctx = FrameContext::new(scene, time, size, size);
     t.prepare(&ctx).unwrap();
     let mut img = ctx.image();
@@ -39,6 +43,23 @@ fn a_directional_light_casts_its_shadow_in_both_baselines() {
         // Without a map for the directional light every pixel in the shadow would be lit.
         assert!(v < 2.5, "{id}: ε_v {v}%");
     }
+}
+
+#[test]
+fn a_sun_map_fitted_to_the_casters_not_the_ground() {
+    // `focus=auto` (ours): the blocker over a 400 m floor. The scene-wide orthographic map's
+    // texels are 3.3 m, wider than the blocker, so its shadow is lost; fitted to the blocker
+    // (the floor supports the scene and faces the sun: it casts nothing) they are 1.2 cm.
+    let mut scene = sun_over_blocker();
+    let c = Vec3::new;
+    let white = scene.meshes[0].material;
+    scene.meshes[0] = Mesh::quad("floor", white, [c(-200., 0., -200.), c(200., 0., -200.), c(200., 0., 200.), c(-200., 0., 200.)]);
+    let wide = epsilon_with(&scene, "lights-shadowmap", 0.0, 48, &Params::parse(&["focus=scene"]).unwrap());
+    let focused = epsilon_with(&scene, "lights-shadowmap", 0.0, 48, &Params::default());
+    println!("lights-shadowmap, sun over a blocker on a 400 m floor, 48²: ε_s {:.2}% scene-wide, {:.2}% focused", wide.1, focused.1);
+    // The shadow is about 2.5 % of the frame: losing it is ε_s ≈ 2.5 %.
+    assert!(wide.1 > 1.5, "the scene-wide map must lose the shadow: ε_s {}%", wide.1);
+    assert!(focused.1 < 0.2 * wide.1, "ε_s {}% → {}%", wide.1, focused.1);
 }
 
 #[test]

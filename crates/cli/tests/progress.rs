@@ -35,7 +35,10 @@ fn the_summary_lists_every_stage_and_they_add_up() {
     let (parts, total) = parts(&stdout);
     let sum: f64 = parts.iter().sum();
     assert!((sum - total).abs() < 0.3, "{parts:?} sum to {sum}, total {total}");
-    assert!(stdout.contains("[bom ") && stdout.contains("generate "), "the prepare's stages are listed: {stdout}");
+    assert!(
+        stdout.contains("[focus ") && stdout.contains(", bom ") && stdout.contains("generate "),
+        "the prepare's stages are listed: {stdout}"
+    );
 }
 
 /// Under a terminal (`script` gives the child a pty), a prepare longer than a second shows a

@@ -64,8 +64,12 @@ impl Focus {
     /// `triangles` (those the focus was computed from) split into the ones inside the focus and
     /// the supporting ones, the latter ready to be tested exactly.
     pub fn split(&self, triangles: &[[Vec3; 3]]) -> (Vec<[Vec3; 3]>, ExactTriangles) {
-        let inside = triangles.iter().enumerate().filter(|(i, _)| self.supporting.binary_search(i).is_err()).map(|(_, t)| *t).collect();
-        (inside, ExactTriangles::new(self.supporting.iter().map(|&i| triangles[i])))
+        (self.inside(triangles), ExactTriangles::new(self.supporting.iter().map(|&i| triangles[i])))
+    }
+
+    /// The triangles of `triangles` (those the focus was computed from) inside the focus.
+    pub fn inside(&self, triangles: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+        triangles.iter().enumerate().filter(|(i, _)| self.supporting.binary_search(i).is_err()).map(|(_, t)| *t).collect()
     }
 
     /// The focus's diagonal as a share of the scene's: what it did to a grid's cell.

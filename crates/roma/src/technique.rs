@@ -105,7 +105,7 @@ impl AoRoma {
             id: "ao-roma",
             family: "ambient occlusion",
             reference: Some("ao-exact"),
-            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=auto (4 or 8) offset=1.5 accumulate=10; profile=paper: n=4)",
+            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=auto (4 or 8) offset=1.5 accumulate=10 focus=auto: the grid around all but the supporting planes, tested exactly; profile=paper: n=4 focus=scene)",
             create: |_: &Scene, settings, params| Ok(Box::new(AoRoma::new(settings, params)?)),
         }
     }
@@ -186,7 +186,7 @@ impl SoftRoma {
             id: "soft-roma",
             family: "soft shadows",
             reference: Some("soft-exact"),
-            description: "ROMA soft shadows: area-light samples as soft-exact, un-snapped DDA shadow rays (n=8 dda_steps=8; snap=true: snapped)",
+            description: "ROMA soft shadows: area-light samples as soft-exact, un-snapped DDA shadow rays (n=8 dda_steps=8 focus=auto; snap=true: snapped)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "soft-roma", glimpse_render::Need::AreaLights)?;
                 Ok(Box::new(SoftRoma::new(settings, params)?))
@@ -273,7 +273,7 @@ impl GiRoma {
             id: "gi-roma",
             family: "global illumination",
             reference: Some("gi-exact"),
-            description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light)",
+            description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light; focus=auto as ao-roma)",
             create: |scene: &Scene, settings, params| {
                 glimpse_render::require(scene, "gi-roma", glimpse_render::Need::AnyLight)?;
                 Ok(Box::new(GiRoma::new(scene, settings, params)?))
