@@ -54,10 +54,9 @@ pub struct GpuLightsVoxArray {
 impl GpuLightsVoxArray {
     pub fn new(gpu: Arc<GpuContext>, scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         glimpse_render::require(scene, "lights-voxarray", Need::PunctualLights)?;
-        let mut cpu = LightsVoxArray::new(scene, settings, params)?;
-        // The scene's cube: a focused array (segments cut to its sphere) is not exercised on
-        // the GPU yet.
-        cpu.focus = false;
+        // `focus=auto` as on the CPU: the CPU builds the focused array and cuts every segment to
+        // its sphere (`surface_segment`), the kernel answers the cut segments.
+        let cpu = LightsVoxArray::new(scene, settings, params)?;
         Ok(Self { gpu, cpu, structure: None, last_times: Vec::new() })
     }
 }

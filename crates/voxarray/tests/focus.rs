@@ -7,19 +7,8 @@
 use glimpse_render::{FrameContext, Params, Settings, Stats, Technique};
 use glimpse_voxarray::technique::LightsVoxArray;
 
-/// A dome (a squashed sphere) resting on a 2 km ground, seen from 14 m up, a sun and a point
-/// light over it.
-fn scene() -> glimpse_scene::Scene {
-    let toml = "[camera]\nposition = [0.0, 14.0, 22.0]\ntarget = [0.0, 0.0, 0.0]\nfov_y_degrees = 30.0\n\
-        [[quad]]\nsize = [2000.0, 2000.0]\n\
-        [[sphere]]\nradius = 6.0\nscale = [1.0, 0.6, 1.0]\ntranslate = [0.0, 3.6, 0.0]\n\
-        [[light]]\nkind = \"directional\"\ndirection = [0.3, -0.5, 0.6]\nintensity = 2.0\n\
-        [[light]]\nkind = \"point\"\nposition = [-10.0, 15.0, -5.0]\nintensity = 300.0\n";
-    let dir = tempfile::tempdir().unwrap();
-    let path = dir.path().join("scene.toml");
-    std::fs::write(&path, toml).unwrap();
-    glimpse_scene::load(path.to_str().unwrap()).unwrap()
-}
+mod common;
+use common::dome_on_ground as scene;
 
 fn render(scene: &glimpse_scene::Scene, focus: &str) -> Stats {
     let ctx = FrameContext::new(scene, 0.0, 64, 48);

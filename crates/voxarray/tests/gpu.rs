@@ -8,7 +8,7 @@
 #![cfg(feature = "gpu")]
 
 mod common;
-use common::{cornell_dynamic_lit, scene};
+use common::{cornell_dynamic_lit, dome_on_ground, scene};
 use glimpse_core::{Rng, Vec3};
 use glimpse_gpu::GpuContext;
 use glimpse_gpu::compute::read_back;
@@ -336,5 +336,40 @@ fn moving_scenes_decide_and_render_as_the_cpu() {
             assert_eq!(pixels_differ, 0, "images differ");
         }
     }
+    ctx.check().unwrap();
+}
+
+/// `focus=auto` on the GPU: the CPU builds the array around the dome (the 2 km ground left out)
+/// and cuts each segment to its sphere; the kernel answers the cut segments. Decisions and the
+/// `--device gpu` image equal the CPU's.
+#[test]
+fn a_focused_array_decides_and_renders_as_the_cpu() {
+    let Some(ctx) = context("focused array") else { return };
+    let ctx = Arc::new(ctx);
+    let scene = dome_on_ground();
+    let params = || Params::parse(&["resolution=64", "directions=16", "disk_cache=false", "epsilon=false"]).unwrap();
+    let mut cpu = LightsVoxArray::new(&scene, &Settings::default(), &params()).unwrap();
+    let mut gpu = GpuLightsVoxArray::new(ctx.clone(), &scene, &Settings::default(), &params()).unwrap();
+    let frame = FrameContext::new(&scene, 0.0, 48, 36);
+    let gbuffer = frame.gbuffer();
+    cpu.prepare(&frame).unwrap();
+    assert!(cpu.focus_box.is_some(), "the dome's box is the focus");
+    let (mut cpu_image, mut gpu_image) = (frame.image(), frame.image());
+    cpu.render(&frame, &gbuffer, &mut cpu_image).unwrap();
+    gpu.prepare(&frame).unwrap();
+    gpu.render(&frame, &gbuffer, &mut gpu_image).unwrap();
+    let cpu_structure = cpu.structure.as_ref().unwrap();
+    let samples = shadow_samples(&frame.frame, &gbuffer, usize::MAX);
+    let segments: Vec<(Vec3, Vec3)> = samples.iter().map(|(ps, n)| cpu_structure.surface_segment(ps, *n)).collect();
+    let on_gpu = GpuStructure::new(&ctx, cpu_structure).unwrap().occluded_segments(&ctx, &segments).unwrap();
+    let on_cpu: Vec<bool> = samples.iter().map(|(ps, n)| cpu_structure.occluded_from_surface(ps, *n)).collect();
+    let differ = on_gpu.iter().zip(&on_cpu).filter(|(g, c)| g != c).count();
+    let occluded = on_cpu.iter().filter(|&&o| o).count();
+    let bits = |v: &glimpse_core::Vec3| v.to_array().map(f32::to_bits);
+    let pixels_differ = gpu_image.pixels.iter().zip(&cpu_image.pixels).filter(|(a, b)| bits(a) != bits(b)).count();
+    println!("focused dome: {} segments ({occluded} occluded), {differ} differ; image {pixels_differ} pixels differ", segments.len());
+    assert!(occluded > 0 && occluded < segments.len(), "no shadow or no light: the test proves nothing");
+    assert_eq!(differ, 0, "decisions differ");
+    assert_eq!(pixels_differ, 0, "images differ");
     ctx.check().unwrap();
 }
