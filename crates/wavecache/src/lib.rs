@@ -91,6 +91,14 @@ pub const ENV_DIRECT_TEXELS: f32 = 1.0;
 /// (roughness 0.3 on 32² maps) span 1.8.
 pub const ENV_DIRECT_LOBE_TEXELS: f32 = 2.0;
 
+/// `sharp_texels`' default: lobes under half a texel of their map are traced. Measured at 96 × 64
+/// against 4,096-spp `pt` (docs/techniques/wavecache.md, "How sharp is sharp"): at 1 (sessions
+/// 10–23) `textured-glossy`'s roughness-0.2 floor (0.8 texel) was traced, MSE 3.99e-2 at 4 spp
+/// and 1.17e-2 at 16; read from its 32² maps 6.59e-3 and 4.16e-3 (`studio-objects`' 0.2 teapot
+/// 1.31e-2 → 1.13e-2); `glints`' 0.12 sphere (0.3 texel) stays traced (from the maps: MSE 3.8 →
+/// 10.5, 153 pixels black where lit).
+pub const SHARP_TEXELS: f32 = 0.5;
+
 /// `trace_disagree=auto`'s factor where the cached light comes from small sources.
 pub const AUTO_DISAGREE: f32 = 3.0;
 
@@ -297,11 +305,14 @@ pub struct WavecacheParams {
     /// [`technique::lobe_finer_than_map`]).
     pub trace_sharp: bool,
     /// How many radiance-map texels a glossy lobe must span to be read from the map
-    /// (`sharp_texels`, ours; [`technique::lobe_finer_than_map`]). 1 by default. 2 is the
-    /// Nyquist rule (a map resolves only what spans two of its samples): it takes a small bright
-    /// source's highlight from 2.1× `pt` to within noise on `textured-glossy`, but it also traces
-    /// the tuned scenes' gold (r 0.25) and copper (r 0.3), so `glossy`'s shading goes from 71 to
-    /// 911 ms at 128 spp and the ≥ 20× speed-up over `pt` is lost (docs/techniques/wavecache.md).
+    /// (`sharp_texels`, ours; [`technique::lobe_finer_than_map`]). 0.5 by default ([`SHARP_TEXELS`]):
+    /// a lobe of half a texel to one reads a texel about as wide as itself, and tracing it
+    /// instead costs more in noise than it saves in bias (session 24, against 4,096-spp `pt`).
+    /// 2 is the Nyquist rule (a map resolves only what spans two of its samples): it takes a
+    /// small bright source's highlight from 2.1× `pt` to within noise on `textured-glossy`, but it
+    /// also traces the tuned scenes' gold (r 0.25) and copper (r 0.3), so `glossy`'s shading goes
+    /// from 71 to 911 ms at 128 spp and the ≥ 20× speed-up over `pt` is lost
+    /// (docs/techniques/wavecache.md).
     pub sharp_texels: f32,
     /// `sharp_env` (ours, off by default): where the environment's brighter half (by power) fits
     /// within one texel of a material's radiance map (`Environment::half_power_solid_angle` <
@@ -394,7 +405,7 @@ impl Default for WavecacheParams {
             mirror_roughness: 0.1,
             mirror_depth: 4,
             trace_sharp: true,
-            sharp_texels: 1.0,
+            sharp_texels: SHARP_TEXELS,
             coat_depth: 3,
             cache_punctual_above: CACHE_PUNCTUAL_ABOVE,
             diffuse_roughness: 0.8,

@@ -20,7 +20,11 @@ fn the_rule_follows_the_map_resolution() {
     // `sharp_texels=2` (Nyquist): Spot's 0.3 on 32² maps is traced too, 0.35 is not.
     assert!(lobe_finer_than_map(0.3, 32, 2.0) && !lobe_finer_than_map(0.35, 32, 2.0));
     let p = WavecacheParams::read(&Params::parse(&["sharp_texels=2".to_owned()]).unwrap()).unwrap();
-    assert_eq!((WavecacheParams::default().sharp_texels, p.sharp_texels), (1.0, 2.0));
+    assert_eq!((WavecacheParams::default().sharp_texels, p.sharp_texels), (0.5, 2.0));
+    // The default (half a texel): the 0.12 sphere (0.3 texel of a 32² map) is traced,
+    // `textured-glossy`'s 0.2 floor (0.8 texel) is read from its map.
+    let half = WavecacheParams::default().sharp_texels;
+    assert!(lobe_finer_than_map(0.12, 32, half) && !lobe_finer_than_map(0.2, 32, half));
 }
 
 use common::render;
