@@ -1079,6 +1079,58 @@ material = { base_color = [0.7, 0.5, 0.4] }
     assert!(e_traced < 1.25 * e_read, "{e_read} → {e_traced}");
 }
 
+/// A traced disagreeing pixel is bounded by its points' light (`DISAGREE_BOUND`): beside the
+/// box in the sun stands a gold sphere, and a floor pixel traced at a shadow's edge whose
+/// sample reaches the sphere's reflection of the sun (a caustic path) is no brighter than
+/// twice its brightest point. Without the bound such samples made pixels many times `pt`
+/// (`scenes/extra/outdoor-sun`: one at 70× at 4 spp).
+#[test]
+fn traced_disagreeing_pixels_are_bounded_by_their_points() {
+    let scene = common::scene_from_toml(
+        r#"
+name = "box and gold sphere in the sun"
+[camera]
+position = [1.5, 2.2, 2.5]
+target = [0.0, 0.0, 0.0]
+fov_y_degrees = 50.0
+[environment]
+sky = { sun_direction = [0.5, 0.7, 0.2], sun_radiance = 500.0, width = 128 }
+[[quad]]
+size = [4.0, 4.0]
+material = { base_color = [0.6, 0.6, 0.6] }
+[[box]]
+size = [0.6, 0.6, 0.6]
+translate = [0.0, 0.3, 0.0]
+material = { base_color = [0.7, 0.5, 0.4] }
+[[sphere]]
+radius = 0.45
+translate = [-0.8, 0.45, 0.3]
+material = { base_color = [1.0, 0.78, 0.34], metallic = 1.0, roughness = 0.15 }
+"#,
+    );
+    let ctx = FrameContext::new(&scene, 0.0, 64, 48);
+    let g = ctx.gbuffer();
+    let reference = pt_reference(&ctx, &g, 1024, 5);
+    let p = WavecacheParams { diffuse_points: 200, glossy_points: 200, trace_disagree: 3.0, disagree_auto: false, ..small_params() };
+    let mut t = Wavecache::with_params(&Settings { spp: 16, seed: 1 }, p);
+    t.prepare(&ctx).expect("prepare");
+    let mut img = ctx.image();
+    let stats = t.render(&ctx, &g, &mut img).expect("render");
+    let traced = stats.metrics.iter().find(|(k, _)| k == "far_traced_pct").map_or(0.0, |(_, v)| *v);
+    let floor = scene.materials.iter().position(|m| m.base_color == glimpse_core::Vec3::splat(0.6)).unwrap() as u32;
+    let worst = (0..g.len())
+        .filter(|&i| g.is_hit(i) && g.material[i] == floor)
+        .map(|i| glimpse_core::luminance(img.pixels[i]) / glimpse_core::luminance(reference.pixels[i]).max(0.02))
+        .fold(0.0f32, f32::max);
+    let (black, over) = faults(&img, &reference);
+    println!(
+        "{traced:.1} % traced; the floor's brightest pixel {worst:.2}× pt (1,024 spp); {black} black, {over} over 2×; MSE {:.3e}",
+        mse(&img, &reference)
+    );
+    assert!(traced > 1.0, "the shadow's edges are traced");
+    assert!(worst < 4.0, "a floor pixel at {worst}× pt");
+}
+
 /// A shelf whose chamfered front edge (turned 60° from its top) has no cache point of its own
 /// (2 points on the shelf, both on the top), under a low sun in front: the query hands the
 /// edge's pixels a point of the top, near but outside the normal cutoff (another orientation's
