@@ -79,10 +79,11 @@ impl Focus {
 }
 
 /// [`Focus::for_all_rays`] of a technique's frames: computed once while the scene's geometry
-/// does not move (a million triangles take about 90 ms), again every frame where it does.
+/// does not move (a million triangles take about 90 ms), again every frame where it does. The
+/// cached focus is kept only for the same bounds and triangle count (another scene recomputes).
 #[derive(Clone, Debug, Default)]
 pub struct FocusCache {
-    cached: Option<Option<Focus>>,
+    cached: Option<((Aabb, usize), Option<Focus>)>,
 }
 
 impl FocusCache {
@@ -91,7 +92,15 @@ impl FocusCache {
         if !frame.scene.geometry_is_static() {
             return Focus::for_all_rays(triangles, frame.bounds);
         }
-        self.cached.get_or_insert_with(|| Focus::for_all_rays(triangles, frame.bounds)).clone()
+        let key = (frame.bounds, triangles.len());
+        match &self.cached {
+            Some((k, focus)) if *k == key => focus.clone(),
+            _ => {
+                let focus = Focus::for_all_rays(triangles, frame.bounds);
+                self.cached = Some((key, focus.clone()));
+                focus
+            }
+        }
     }
 }
 
@@ -363,6 +372,22 @@ mod tests {
         assert!(exact.any_hit(p, -Vec3::Y, 2.5) && !exact.any_hit(p, -Vec3::Y, 1.5));
         assert!(exact.any_hit(Vec3::new(50.0, -2.0, 3.0), Vec3::Y, 3.0), "from below: two-sided");
         assert!(!exact.any_hit(p, Vec3::Y, f32::INFINITY) && ExactTriangles::default().closest_hit(p, -Vec3::Y, 9.0).is_none());
+    }
+
+    #[test]
+    fn the_cache_keeps_a_focus_for_its_own_scene_only() {
+        use glimpse_scene::{Material, Mesh, Scene};
+        let mut ground = Scene { name: "ground".into(), ..Default::default() };
+        let m = ground.add_material(Material::diffuse("grey", Vec3::splat(0.5)));
+        let q = |y: f32, h: f32| [Vec3::new(-h, y, -h), Vec3::new(h, y, -h), Vec3::new(h, y, h), Vec3::new(-h, y, h)];
+        ground.add_mesh(Mesh::quad("floor", m, q(0.0, 100.0)), glimpse_core::Mat4::IDENTITY);
+        ground.add_mesh(Mesh::quad("shelf", m, q(1.0, 0.5)), glimpse_core::Mat4::IDENTITY);
+        let room = glimpse_scene::load("cornell").unwrap();
+        let mut cache = FocusCache::default();
+        let (a, b) = (ground.at(0.0), room.at(0.0));
+        assert!(cache.for_all_rays(&a, &a.world_triangles()).is_some(), "the shelf over a large floor is a focus");
+        assert!(cache.for_all_rays(&a, &a.world_triangles()).is_some(), "kept");
+        assert!(cache.for_all_rays(&b, &b.world_triangles()).is_none(), "another scene is not handed the first one's focus");
     }
 
     #[test]
