@@ -197,8 +197,12 @@ impl ExactTriangles {
             return best;
         };
         let inv_dir = Vec3::ONE / Vec3::select(dir.abs().cmpgt(Vec3::splat(1e-30)), dir, Vec3::splat(1e-30).copysign(dir));
-        let mut stack = vec![0usize];
-        while let Some(node) = stack.pop() {
+        // A fixed stack, no allocation per ray: the traversal holds at most one pending node
+        // per level, and the build's depth is at most 64 SAH levels plus log2 of the count.
+        let (mut stack, mut top) = ([0usize; 128], 1);
+        while top > 0 {
+            top -= 1;
+            let node = stack[top];
             let n = &bvh.nodes[node];
             if n.bounds().intersect(origin, inv_dir, 0.0, best.unwrap_or(t_max)).is_none() {
                 continue;
@@ -212,8 +216,8 @@ impl ExactTriangles {
                     }
                 }
             } else {
-                stack.push(n.first_or_right as usize);
-                stack.push(node + 1);
+                (stack[top], stack[top + 1]) = (n.first_or_right as usize, node + 1);
+                top += 2;
             }
         }
         best

@@ -1029,15 +1029,8 @@ fn far_cache_points_are_traced_not_read() {
     assert!(dense.pixels == dense_read.pixels, "the same image where no point is far");
 }
 
-/// `trace_disagree=3` (`auto` by default: 3 only under a small bright environment source): a
-/// box on a floor under a strong sun, with a coarse
-/// cache. The floor pixels whose blended points' irradiances differ by more than 3× (the
-/// shadow's edges, where the mean paints sunlight into the umbra) are traced, and the pixels
-/// over 2× `pt` go.
-#[test]
-fn disagreeing_points_are_traced_not_blended() {
-    let scene = common::scene_from_toml(
-        r#"
+/// A box on a 4 m floor under a strong sun (a sky map): the shadow edges `trace_disagree` is for.
+const BOX_IN_THE_SUN: &str = r#"
 name = "box in the sun"
 [camera]
 position = [1.5, 2.2, 2.5]
@@ -1052,8 +1045,16 @@ material = { base_color = [0.6, 0.6, 0.6] }
 size = [0.6, 0.6, 0.6]
 translate = [0.0, 0.3, 0.0]
 material = { base_color = [0.7, 0.5, 0.4] }
-"#,
-    );
+"#;
+
+/// `trace_disagree=3` (`auto` by default: 3 only under a small bright environment source): a
+/// box on a floor under a strong sun, with a coarse
+/// cache. The floor pixels whose blended points' irradiances differ by more than 3× (the
+/// shadow's edges, where the mean paints sunlight into the umbra) are traced, and the pixels
+/// over 2× `pt` go.
+#[test]
+fn disagreeing_points_are_traced_not_blended() {
+    let scene = common::scene_from_toml(BOX_IN_THE_SUN);
     let ctx = FrameContext::new(&scene, 0.0, 48, 36);
     let g = ctx.gbuffer();
     let reference = pt_reference(&ctx, &g, 256, 5);
@@ -1086,28 +1087,9 @@ material = { base_color = [0.7, 0.5, 0.4] }
 /// (`scenes/extra/outdoor-sun`: one at 70× at 4 spp).
 #[test]
 fn traced_disagreeing_pixels_are_bounded_by_their_points() {
-    let scene = common::scene_from_toml(
-        r#"
-name = "box and gold sphere in the sun"
-[camera]
-position = [1.5, 2.2, 2.5]
-target = [0.0, 0.0, 0.0]
-fov_y_degrees = 50.0
-[environment]
-sky = { sun_direction = [0.5, 0.7, 0.2], sun_radiance = 500.0, width = 128 }
-[[quad]]
-size = [4.0, 4.0]
-material = { base_color = [0.6, 0.6, 0.6] }
-[[box]]
-size = [0.6, 0.6, 0.6]
-translate = [0.0, 0.3, 0.0]
-material = { base_color = [0.7, 0.5, 0.4] }
-[[sphere]]
-radius = 0.45
-translate = [-0.8, 0.45, 0.3]
-material = { base_color = [1.0, 0.78, 0.34], metallic = 1.0, roughness = 0.15 }
-"#,
-    );
+    let sphere = "[[sphere]]\nradius = 0.45\ntranslate = [-0.8, 0.45, 0.3]\n\
+        material = { base_color = [1.0, 0.78, 0.34], metallic = 1.0, roughness = 0.15 }\n";
+    let scene = common::scene_from_toml(&format!("{BOX_IN_THE_SUN}{sphere}"));
     let ctx = FrameContext::new(&scene, 0.0, 64, 48);
     let g = ctx.gbuffer();
     let reference = pt_reference(&ctx, &g, 1024, 5);
