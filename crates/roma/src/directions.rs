@@ -18,6 +18,11 @@ use std::f32::consts::FRAC_PI_4;
 /// Rays processed together by the batch path ([`CandidateSet::select_lanes`]).
 pub const LANES: usize = 8;
 
+/// The largest [`CandidateSet::cosine_weight`]: the ratio of a stratum's highest cosine to its
+/// mean is at most 2 where the horizon does not cut it (the outer ring at n = 4, whose heights
+/// are uniform from 0 to 0.75); above 4 only the sub-strata's error on a stratum the horizon cuts remains.
+pub const MAX_COSINE_WEIGHT: f32 = 4.0;
+
 /// The world hemisphere the candidates are drawn on.
 pub const HEMISPHERE_AXIS: Vec3 = Vec3::Y;
 
@@ -29,6 +34,61 @@ pub struct CandidateSet {
     pub dirs: Vec<Vec3>,
     /// The hemisphere's frame (z = [`HEMISPHERE_AXIS`]).
     pub hemisphere: Frame,
+    /// Each stratum's shape, for its mean cosine about a normal ([`CandidateSet::cosine_weight`]).
+    pub strata: Vec<Stratum>,
+}
+
+/// Sub-strata per side of a stratum whose centres give its mean cosine where the horizon cuts
+/// it (8 × 8 points).
+pub const STRATUM_QUADRATURE_SIDE: u32 = 8;
+
+/// One stratum of the candidate square on the sphere: its mean direction (the first moment ÷
+/// its solid angle), a cone that holds it, and its sub-stratum centres.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Stratum {
+    pub mean: Vec3,
+    pub axis: Vec3,
+    /// sin of the cone's half-angle: a normal within 90° minus that angle of `axis` sees the
+    /// whole stratum above its horizon.
+    pub sin_half: f32,
+    pub points: Vec<Vec3>,
+}
+
+impl Stratum {
+    /// Stratum (a, b) of the n×n split of the square, in the hemisphere `frame`.
+    fn new(n: u32, a: u32, b: u32, frame: &Frame) -> Self {
+        let at = |s: f32, t: f32| {
+            frame.to_world(square_to_hemisphere(Vec2::new((a as f32 + s) / n as f32, (b as f32 + t) / n as f32))).normalize()
+        };
+        let side = STRATUM_QUADRATURE_SIDE;
+        let centre = |i: u32| (i as f32 + 0.5) / side as f32;
+        let points: Vec<Vec3> = (0..side * side).map(|q| at(centre(q / side), centre(q % side))).collect();
+        let mean = points.iter().copied().sum::<Vec3>() / points.len() as f32;
+        let axis = mean.normalize();
+        // The cone reaches the stratum's farthest boundary direction from the axis (sampled
+        // densely, with a margin for the boundary between the samples).
+        let edge = 32;
+        let farthest = (0..=edge)
+            .flat_map(|i| {
+                let t = i as f32 / edge as f32;
+                [at(t, 0.0), at(t, 1.0), at(0.0, t), at(1.0, t)]
+            })
+            .map(|d| axis.dot(d))
+            .fold(1.0f32, f32::min);
+        let cos_half = (farthest - 1e-3).max(-1.0);
+        Self { mean, axis, sin_half: (1.0 - cos_half * cos_half).max(0.0).sqrt(), points }
+    }
+
+    /// The mean of cos⁺ about the unit `normal` over the stratum: from the mean direction where
+    /// the horizon does not cut the stratum (exact: the cosine is linear there), else from its
+    /// sub-stratum centres.
+    #[inline]
+    pub fn mean_cosine(&self, normal: Vec3) -> f32 {
+        if normal.dot(self.axis) >= self.sin_half {
+            return normal.dot(self.mean);
+        }
+        self.points.iter().map(|q| normal.dot(*q).max(0.0)).sum::<f32>() / self.points.len() as f32
+    }
 }
 
 impl CandidateSet {
@@ -44,7 +104,29 @@ impl CandidateSet {
                 hemisphere.to_world(square_to_hemisphere(u)).normalize()
             })
             .collect();
-        CandidateSet { n, dirs, hemisphere }
+        let strata = (0..n * n).map(|k| Stratum::new(n, k / n, k % n, &hemisphere)).collect();
+        CandidateSet { n, dirs, hemisphere, strata }
+    }
+
+    /// The weight that makes a snapped sample unbiased for a cosine-weighted integral about
+    /// `normal` (ours, `snap_weight=cos`). A cosine sample lands in a stratum with its
+    /// cosine-weighted share, but the stratum's candidate is uniform over the stratum's solid
+    /// angle, so the snapped estimate averages the stratum uniformly where the integral weighs
+    /// it by the cosine: a wide outer stratum (elevations 0–49° at n = 4) then stands for its
+    /// grazing part as much as for its high part, and occluders low on the horizon count about
+    /// twice (a ground 3 m from a wall: AO 0.958 where `ao-exact` has 0.976). The weight is
+    /// cos⁺(candidate) ÷ the stratum's mean cos⁺: its mean over the jittered candidate is 1,
+    /// and the sample's expectation is the stratum's cosine-weighted mean.
+    #[inline]
+    pub fn cosine_weight(&self, k: usize, sign: f32, normal: Vec3) -> f32 {
+        let n = normal * sign;
+        let cos = n.dot(self.dirs[k]).max(0.0);
+        if cos <= 0.0 {
+            return 0.0;
+        }
+        let mean = self.strata[k].mean_cosine(n);
+        // The sub-strata can miss most of a sliver the horizon leaves: bound the weight there.
+        (cos / mean.max(1e-6)).min(MAX_COSINE_WEIGHT)
     }
 
     pub fn len(&self) -> usize {
@@ -160,5 +242,49 @@ mod tests {
         }
         println!("square → hemisphere → square: worst error {worst:e}");
         assert!(worst < 1e-3);
+    }
+
+    /// The snapped AO estimate of an occluder low on the horizon (every direction under 17°
+    /// elevation blocked), against the cosine-weighted integral: counted as the paper counts,
+    /// and with the cosine weight (`snap_weight=cos`), for surfaces facing up, tilted and
+    /// sideways. The weighted mean must be within a fifth of the count's error (measured: up
+    /// 0.0003 against 0.126, tilted 40° 0.006 against 0.053, sideways 0.004 against 0.014,
+    /// tilted down 0.001 against 0.030; what is left is the weight's bound on strata the
+    /// horizon cuts to slivers); the count must show the bias on the up-facing surface.
+    #[test]
+    fn the_cosine_weight_removes_the_snapping_bias() {
+        use glimpse_core::sampling::cosine_hemisphere;
+        let blocked = |d: Vec3| d.y < 0.3;
+        let mut rng = Rng::new(11, 0);
+        for (name, normal) in [
+            ("up", Vec3::Y),
+            ("tilted 40°", Vec3::new(0.64, 0.77, 0.0)),
+            ("sideways", Vec3::new(0.0, 0.0, 1.0)),
+            ("tilted down 20°", Vec3::new(0.94, -0.34, 0.0)),
+        ] {
+            let normal = normal.normalize();
+            let basis = Frame::from_z(normal);
+            let (mut exact, mut counted, mut weighted, mut trials) = (0.0f64, 0.0f64, 0.0f64, 0u32);
+            for _ in 0..3000 {
+                let set = CandidateSet::draw(4, &mut rng, true);
+                for _ in 0..200 {
+                    let d = basis.to_world(cosine_hemisphere(rng.next_2d()));
+                    let (k, sign) = set.select(d);
+                    let c = set.dirs[k] * sign;
+                    exact += blocked(d) as u8 as f64;
+                    if blocked(c) {
+                        counted += 1.0;
+                        weighted += set.cosine_weight(k, sign, normal) as f64;
+                    }
+                    trials += 1;
+                }
+            }
+            let [exact, counted, weighted] = [exact, counted, weighted].map(|b| 1.0 - b / trials as f64);
+            println!("{name}: AO exact {exact:.4}, counted {counted:.4}, weighted {weighted:.4}");
+            assert!((weighted - exact).abs() < 0.002 + 0.2 * (counted - exact).abs(), "{name}: weighted {weighted:.4} vs {exact:.4}");
+            if name == "up" {
+                assert!(exact - counted > 0.02, "the count's bias on a ground: {counted:.4} vs {exact:.4}");
+            }
+        }
     }
 }

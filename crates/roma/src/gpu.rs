@@ -31,6 +31,7 @@
 
 use crate::directions::CandidateSet;
 use crate::grid::om_axes;
+use crate::weighting::SnappedSample;
 use crate::{Grid, MapTransform, RomaParams, frame_grid_and_candidates, occluded_exact_ray};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Aabb, Frame, Image, Ray, Rng, Vec3};
@@ -485,13 +486,16 @@ pub fn ao_queries(gbuffer: &GBuffer, spp: u32, radius: f32, offset_world: f32, s
 }
 
 /// `ao-roma`'s single frame (before the temporal accumulation) on the GPU: the CPU's rays
-/// ([`ao_queries`]), snapped and traced by the query kernel against the frame built last.
+/// ([`ao_queries`]), snapped and traced by the query kernel against the frame built last, and
+/// combined as the CPU combines them ([`crate::weighting`], `cosine_weight`: `snap_weight=cos`).
+#[allow(clippy::too_many_arguments)]
 pub fn ambient_occlusion(
     ctx: &GpuContext,
     roma: &mut GpuRoma,
     gbuffer: &GBuffer,
     spp: u32,
     radius: f32,
+    cosine_weight: bool,
     seed: u64,
     frame_index: u32,
 ) -> Result<Image, GpuError> {
@@ -502,11 +506,20 @@ pub fn ambient_occlusion(
     let offset = f.grid.cell_size_world * f.origin_offset_cells;
     let (queries, pixels) = ao_queries(gbuffer, spp, radius, offset, seed, frame_index);
     let occluded = roma.any_hit_snapped(ctx, &queries)?;
-    let mut image = Image::new(gbuffer.width, gbuffer.height);
-    image.pixels.iter_mut().for_each(|p| *p = Vec3::ONE);
+    let f = roma.frame()?;
+    let spp = spp as usize;
+    let mut samples = vec![None; gbuffer.len() * spp];
     for (n, &i) in pixels.iter().enumerate() {
-        let open = occluded[n * spp as usize..(n + 1) * spp as usize].iter().filter(|&&o| !o).count();
-        image.pixels[i] = Vec3::splat(open as f32 / spp as f32);
+        for j in n * spp..(n + 1) * spp {
+            let (k, sign) = f.candidates.select(queries[j].dir.into());
+            let weight = if cosine_weight { f.candidates.cosine_weight(k, sign, gbuffer.shading_normal[i]) } else { 1.0 };
+            samples[i * spp + j - n * spp] = Some(SnappedSample { open: !occluded[j] as u8 as f32, weight });
+        }
+    }
+    let mut image = Image::new(gbuffer.width, gbuffer.height);
+    let width = gbuffer.width as usize;
+    for (row, out) in image.pixels.chunks_mut(width).enumerate() {
+        crate::weighting::open_fractions(&samples[row * width * spp..(row + 1) * width * spp], spp, out);
     }
     Ok(image)
 }

@@ -132,6 +132,8 @@ pub struct GpuAoRoma {
     state: GpuRomaState,
     /// AO ray length (default ∞, as the CPU technique's).
     pub radius: f32,
+    /// `snap_weight=cos`, as the CPU technique's.
+    pub cosine_weight: bool,
 }
 
 impl GpuAoRoma {
@@ -139,7 +141,8 @@ impl GpuAoRoma {
         // The CPU `AoRoma::new`'s reads, in its order.
         let state = GpuRomaState::new("ao-roma", gpu, settings, params, RomaParams::with_auto_n(), false)?;
         let radius = params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)?;
-        Ok(Self { state, radius })
+        let cosine_weight = params.choice("snap_weight", "none", &["none", "cos"])? == "cos";
+        Ok(Self { state, radius, cosine_weight })
     }
 }
 
@@ -155,14 +158,18 @@ impl Technique for GpuAoRoma {
     fn render(&mut self, ctx: &FrameContext, gbuffer: &GBuffer, out: &mut Image) -> Result<Stats, RenderError> {
         let mut stats = Stats { memory_bytes: self.state.memory_bytes()?, ..Default::default() };
         let (spp, seed, radius, gpu) = (self.state.settings.spp, self.state.settings.seed, self.radius, self.state.gpu.clone());
+        let weight = self.cosine_weight;
         let roma = self.state.roma(gbuffer, out)?;
         let image = stats
-            .time("trace", || super::ambient_occlusion(&gpu, roma, gbuffer, spp, radius, seed, ctx.frame_index))
+            .time("trace", || super::ambient_occlusion(&gpu, roma, gbuffer, spp, radius, weight, seed, ctx.frame_index))
             .map_err(|e| gpu_error("ao-roma", e))?;
         out.pixels.copy_from_slice(&image.pixels);
         ctx.progress.add(out.pixels.len() as u64);
         stats.rays = (0..gbuffer.len()).filter(|&i| gbuffer.is_hit(i)).count() as u64 * spp as u64;
-        stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
+        stats.time("accumulate", || {
+            self.state.accumulator.blend(ctx.frame_index, out);
+            crate::weighting::clamp_open_fraction(out);
+        });
         Ok(stats)
     }
 }

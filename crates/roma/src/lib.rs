@@ -23,6 +23,7 @@ pub mod generate;
 pub mod gpu;
 pub mod technique;
 pub mod trace;
+pub mod weighting;
 
 pub use directions::CandidateSet;
 pub use glimpse_voxel::{Accumulator, DEFAULT_ACCUMULATE, frame_jitter};

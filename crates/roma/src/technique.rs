@@ -14,7 +14,9 @@
 //!   normal, as in the references.
 //! - AO / GI: a cosine-weighted direction picks its stratum's candidate ("snap", §4.2); the
 //!   estimator then treats the snapped ray as the sampled one (as the paper does). A snapped
-//!   direction can fall below the surface near the horizon; it is traced as it is.
+//!   direction can fall below the surface near the horizon; it is traced as it is. `ao-roma`'s
+//!   `snap_weight=cos` (ours, off by default) weights the samples against the bias this has
+//!   ([`crate::weighting`]).
 //! - Soft shadows: a light sample exactly as `soft-exact` draws it; the segment runs from the
 //!   offset origin to the light point moved 1.5 cells off the emitter along the emitter's normal
 //!   (so the emitter's cells — and the ceiling it hangs under — do not block it; pulling it back
@@ -28,6 +30,7 @@
 //!   the points to avoid shadow acne" of §6) and the shading point is on the lit side. Environment
 //!   light is not injected (the paper's RSMs are for spot and point lights).
 
+use crate::weighting::{self, SnappedSample};
 use crate::{Accumulator, DEFAULT_ACCUMULATE, Roma, RomaParams};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
@@ -97,6 +100,9 @@ pub struct AoRoma {
     state: RomaState,
     /// AO ray length (default ∞, as the paper's AO).
     pub radius: f32,
+    /// `snap_weight=cos` (ours; default `none`, the paper's count): each snapped sample is
+    /// weighted by [`crate::CandidateSet::cosine_weight`] ([`crate::weighting`]).
+    pub cosine_weight: bool,
 }
 
 impl AoRoma {
@@ -105,14 +111,15 @@ impl AoRoma {
             id: "ao-roma",
             family: "ambient occlusion",
             reference: Some("ao-exact"),
-            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=auto (4 or 8) offset=1.5 accumulate=10 focus=auto: the grid around all but the supporting planes, tested exactly; profile=paper: n=4 focus=scene)",
+            description: "ROMA ambient occlusion: snapped any-hit through n×n ray-aligned occupancy maps (resolution=128 n=auto (4 or 8) offset=1.5 accumulate=10 focus=auto: the grid around all but the supporting planes, tested exactly; snap_weight=none, cos: samples weighted against the snapping bias; profile=paper: n=4 focus=scene)",
             create: |_: &Scene, settings, params| Ok(Box::new(AoRoma::new(settings, params)?)),
         }
     }
 
     pub fn new(settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         let state = RomaState::new(settings, params, RomaParams::with_auto_n(), false)?;
-        Ok(Self { state, radius: params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)? })
+        let cosine_weight = params.choice("snap_weight", "none", &["none", "cos"])? == "cos";
+        Ok(Self { state, radius: params.f32("radius", f32::INFINITY, 0.0, f32::INFINITY)?, cosine_weight })
     }
 }
 
@@ -129,19 +136,26 @@ impl Technique for AoRoma {
         let roma = self.state.roma("ao-roma")?;
         let mut stats = Stats { memory_bytes: roma.memory_bytes(), ..Default::default() };
         let (spp, seed, radius) = (self.state.settings.spp, self.state.settings.seed, self.radius);
-        stats.rays = stats.time("trace", || ambient_occlusion(roma, gbuffer, spp, radius, seed, ctx.frame_index, &ctx.progress, out));
-        stats.time("accumulate", || self.state.accumulator.blend(ctx.frame_index, out));
+        let weight = self.cosine_weight;
+        stats.rays =
+            stats.time("trace", || ambient_occlusion(roma, gbuffer, spp, radius, weight, seed, ctx.frame_index, &ctx.progress, out));
+        stats.time("accumulate", || {
+            self.state.accumulator.blend(ctx.frame_index, out);
+            weighting::clamp_open_fraction(out);
+        });
         Ok(stats)
     }
 }
 
-/// ROMA ambient occlusion of every GBuffer pixel (1 = open); returns the rays traced.
+/// ROMA ambient occlusion of every GBuffer pixel (1 = open); returns the rays traced. With
+/// `cosine_weight` (`snap_weight=cos`) the samples are combined by [`crate::weighting`].
 #[allow(clippy::too_many_arguments)]
 pub fn ambient_occlusion(
     roma: &Roma,
     gbuffer: &GBuffer,
     spp: u32,
     radius: f32,
+    cosine_weight: bool,
     seed: u64,
     frame_index: u32,
     progress: &glimpse_render::Progress,
@@ -149,25 +163,27 @@ pub fn ambient_occlusion(
 ) -> u64 {
     let offset = roma.cell_size_world() * crate::with_maps!(roma, m => m.origin_offset_cells);
     let width = gbuffer.width as usize;
-    // One row per task: the progress counter is shared, so it is bumped once per row.
+    let candidates = roma.candidates();
+    // One row per task (the lone-sample rule reads a pixel's neighbour); the progress counter
+    // is shared, so it is bumped once per row.
     out.pixels.par_chunks_mut(width).enumerate().for_each(|(row, pixels)| {
-        for (x, px) in pixels.iter_mut().enumerate() {
+        let mut samples = vec![None; width * spp as usize];
+        for (x, px_samples) in samples.chunks_mut(spp as usize).enumerate() {
             let i = row * width + x;
             if !gbuffer.is_hit(i) {
-                *px = Vec3::ONE;
                 continue;
             }
             let origin = gbuffer.position[i] + gbuffer.normal[i] * offset;
             let basis = Frame::from_z(gbuffer.shading_normal[i]);
             let mut rng = Rng::for_pixel(seed, i as u64, frame_index as u64);
-            let open = (0..spp)
-                .filter(|_| {
-                    let (k, sign) = roma.select(basis.to_world(cosine_hemisphere(rng.next_2d())));
-                    !roma.any_hit_snapped(k, sign, origin, radius)
-                })
-                .count();
-            *px = Vec3::splat(open as f32 / spp as f32);
+            for sample in px_samples {
+                let (k, sign) = roma.select(basis.to_world(cosine_hemisphere(rng.next_2d())));
+                let open = !roma.any_hit_snapped(k, sign, origin, radius);
+                let weight = if cosine_weight { candidates.cosine_weight(k, sign, basis.z) } else { 1.0 };
+                *sample = Some(SnappedSample { open: open as u8 as f32, weight });
+            }
         }
+        weighting::open_fractions(&samples, spp as usize, pixels);
         progress.add(pixels.len() as u64);
     });
     gbuffer.instance.iter().filter(|&&i| i != glimpse_trace::gbuffer::NO_HIT).count() as u64 * spp as u64

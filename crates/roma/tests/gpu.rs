@@ -252,12 +252,15 @@ fn dda_queries_agree_with_the_cpu() {
 }
 
 /// One frame of `ao-roma` on the GPU equals the CPU technique's single frame (same GBuffer, same
-/// per-pixel directions), pixel for pixel.
+/// per-pixel directions), pixel for pixel; counted as the paper counts, and weighted
+/// (`snap_weight=cos`).
 #[test]
 fn ao_roma_frame_equals_the_cpu() {
     let Some(ctx) = context("ao-roma") else { return };
     let mut gpu = GpuRoma::new(&ctx).unwrap();
-    for (name, radius, frame_index) in [("cornell", f32::INFINITY, 0), ("glossy", 0.5, 2)] {
+    for (name, radius, frame_index, weight) in
+        [("cornell", f32::INFINITY, 0, false), ("glossy", 0.5, 2, false), ("cornell", f32::INFINITY, 1, true)]
+    {
         let scene = glimpse_scene::load(name).unwrap();
         let params = RomaParams::default();
         let (spp, seed) = (4, 7);
@@ -266,14 +269,14 @@ fn ao_roma_frame_equals_the_cpu() {
         let tracer = ExactTracer::build(&frame);
         let g = GBuffer::new(&frame, &tracer, &scene.camera_or_default(4.0 / 3.0), 48, 36);
         let mut cpu_image = Image::new(g.width, g.height);
-        glimpse_roma::technique::ambient_occlusion(&cpu, &g, spp, radius, seed, frame_index, &Progress::default(), &mut cpu_image);
-        let gpu_image = gpu::ambient_occlusion(&ctx, &mut gpu, &g, spp, radius, seed, frame_index).unwrap();
+        glimpse_roma::technique::ambient_occlusion(&cpu, &g, spp, radius, weight, seed, frame_index, &Progress::default(), &mut cpu_image);
+        let gpu_image = gpu::ambient_occlusion(&ctx, &mut gpu, &g, spp, radius, weight, seed, frame_index).unwrap();
         let differ = cpu_image.pixels.iter().zip(&gpu_image.pixels).filter(|(a, b)| a != b).count();
         let mse = cpu_image.pixels.iter().zip(&gpu_image.pixels).map(|(a, b)| ((a.x - b.x) as f64).powi(2)).sum::<f64>()
             / cpu_image.pixels.len() as f64;
         let mean = gpu_image.pixels.iter().map(|p| p.x as f64).sum::<f64>() / gpu_image.pixels.len() as f64;
         println!(
-            "{name:8} radius {radius} frame {frame_index}: {} pixels × {spp} rays, mean AO {mean:.4}, {differ} pixels differ, RMSE {:.2e}",
+            "{name:8} radius {radius} frame {frame_index} weighted {weight}: {} pixels × {spp} rays, mean AO {mean:.4}, {differ} pixels differ, RMSE {:.2e}",
             g.len(),
             mse.sqrt()
         );
@@ -338,8 +341,8 @@ fn a_focused_frame_agrees_with_the_cpu() {
     check_agreement("focused dda", differ.count(), segments.len());
 
     let mut cpu_image = Image::new(g.width, g.height);
-    glimpse_roma::technique::ambient_occlusion(&cpu, &g, 4, f32::INFINITY, seed, frame_index, &Progress::default(), &mut cpu_image);
-    let gpu_image = gpu::ambient_occlusion(&ctx, &mut gpu, &g, 4, f32::INFINITY, seed, frame_index).unwrap();
+    glimpse_roma::technique::ambient_occlusion(&cpu, &g, 4, f32::INFINITY, false, seed, frame_index, &Progress::default(), &mut cpu_image);
+    let gpu_image = gpu::ambient_occlusion(&ctx, &mut gpu, &g, 4, f32::INFINITY, false, seed, frame_index).unwrap();
     let differ = cpu_image.pixels.iter().zip(&gpu_image.pixels).filter(|(a, b)| a != b).count();
     println!("focused ao-roma frame: {differ} of {} pixels differ", g.len());
     assert_eq!(differ, 0);
