@@ -30,8 +30,9 @@ pub use technique::{Need, RenderError, Settings, Technique, require};
 /// key that stores their results (reference images, the wavelet cache). The crate version alone
 /// never changed, so a cache written by older code was read back after the tracing changed.
 /// Bump it with any change that moves a reference's pixels: 2 = ray offsets relative to each
-/// point's error scale (session 10); 3 = VPLs' own error scales at their shadow rays' end.
-pub const RESULTS_REVISION: u32 = 3;
+/// point's error scale (session 10); 3 = VPLs' own error scales at their shadow rays' end;
+/// 4 = mirrored instances keep their faces' orientation (`glimpse_scene::orient`, session 25).
+pub const RESULTS_REVISION: u32 = 4;
 
 /// Where glimpse keeps data that is slow to compute (reference images, precomputations):
 /// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`. `GLIMPSE_CACHE`

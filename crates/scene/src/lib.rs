@@ -19,6 +19,7 @@ pub mod light;
 pub mod mitsuba_loader;
 pub mod model;
 pub mod obj_loader;
+pub mod orient;
 pub mod overrides;
 pub mod ply_loader;
 pub mod procedural;
@@ -68,6 +69,8 @@ pub fn load(spec: &str) -> Result<Scene, SceneError> {
         .fold((0u64, 0u64), |(v, t), m| (v + m.positions.len() as u64, t + m.indices.len() as u64));
     glimpse_core::memory_budget::check_mesh(format!("scene {spec} ({triangles} triangles)"), vertices, triangles)
         .map_err(|e| SceneError::Invalid { source_name: spec.to_owned(), message: e.to_string() })?;
+    // Mirrored placements keep their faces' orientation (once, on the composed scene).
+    orient::orient_mirrored_instances(&mut scene);
     validate::validate(&mut scene, spec)?;
     Ok(scene)
 }

@@ -781,3 +781,27 @@ fn film_filter_and_samples_from_toml() {
         assert!(e.contains("film.toml") && e.contains(needle), "{bad}: {e}");
     }
 }
+
+/// A quad mirrored upside down by its placement (scale y = −1) emits downwards, as its normals
+/// say and as glTF and pbrt define a mirrored instance; one mirrored the same way by a rotation
+/// does too, and an unmirrored emitter keeps its side (`glimpse_scene::orient`).
+#[test]
+fn a_mirrored_emitter_lights_the_side_its_placement_turned_it_to() {
+    let dir = scratch("mirrored_emitter");
+    let path = dir.join("mirror.toml");
+    let text = "[[quad]]\nsize = [1.0, 1.0]\nscale = [1.0, -1.0, 1.0]\ntranslate = [0.0, 2.0, 0.0]\n\
+        material = { base_color = [0.0, 0.0, 0.0], emission = [5.0, 5.0, 5.0] }\n\
+        [[quad]]\nsize = [1.0, 1.0]\nrotate = { axis = [1.0, 0.0, 0.0], degrees = 180.0 }\ntranslate = [3.0, 2.0, 0.0]\n\
+        material = { base_color = [0.0, 0.0, 0.0], emission = [5.0, 5.0, 5.0] }\n\
+        [[quad]]\nsize = [1.0, 1.0]\ntranslate = [6.0, 0.0, 0.0]\nmaterial = { emission = [1.0, 1.0, 1.0] }\n";
+    std::fs::write(&path, text).unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    let frame = scene.at(0.0);
+    for e in &frame.emissive {
+        let x = e.vertices[0].x;
+        let expected = if x < 5.0 { -1.0 } else { 1.0 };
+        println!("emitter triangle at x ≈ {x:.1}: normal {:?}", e.normal);
+        assert!((e.normal.y - expected).abs() < 1e-5, "at x {x}: normal {:?}", e.normal);
+    }
+    assert_eq!(frame.emissive.len(), 6);
+}
