@@ -507,7 +507,9 @@ fn cross_checks(cells: &mut [Cell]) {
     let vpl_trimmed = others.iter().filter_map(cost_trimmed).reduce(f64::min);
     for c in cells.iter_mut() {
         if let ("ao-roma", (Some(roma), Some(df))) = (c.technique.as_str(), roma_df) {
-            let pass = roma < df;
+            // A FLIP of 0 is the reference itself: nothing can be below it (a frame that shows
+            // no surface, where both equal it).
+            let pass = roma < df || roma == 0.0;
             c.checks.push(Check { what: format!("FLIP below ao-df's {df:.4} after {} frames", c.frames), pass });
             if !pass {
                 c.reasons.push(format!("after {} frames its FLIP is {roma:.4}, ao-df's {df:.4}", c.frames));
@@ -517,7 +519,8 @@ fn cross_checks(cells: &mut [Cell]) {
             && let Some(best_cell) = others.iter().min_by(|a, b| cost(a).total_cmp(&cost(b)))
         {
             let (best_id, best, mine) = (best_cell.technique.as_str(), cost(best_cell), cost(c));
-            let pass = mine < best;
+            // An MSE of 0 (no pixel that a VPL lights) cannot be beaten.
+            let pass = mine < best || mine == 0.0;
             c.checks.push(Check { what: format!("MSE × ms below the other VPL methods' best ({best_id} {best:.3e})"), pass });
             if !pass {
                 // Whether a few pixels decide it: the same comparison without each method's worst
@@ -891,6 +894,13 @@ mod tests {
         let mut cells = vec![flip("ao-roma", 0.3), flip("ao-df", 0.2)];
         cross_checks(&mut cells);
         assert!(!cells[0].pass && cells[0].reasons.iter().any(|r| r.contains("0.3000") && r.contains("0.2000")), "{:?}", cells[0].reasons);
+        // Both equal to the reference (a frame that shows no surface): nothing to be below.
+        let mut cells = vec![flip("ao-roma", 0.0), flip("ao-df", 0.0)];
+        cross_checks(&mut cells);
+        assert!(cells[0].pass, "{:?}", cells[0].checks);
+        let mut cells = vec![vpl("vpl-lightcuts", 1.0, 0.0, 0.0), vpl("vpl-sst", 0.9, 0.0, 0.0)];
+        cross_checks(&mut cells);
+        assert!(cells[0].pass, "{:?}", cells[0].checks);
         let c = cell("s", &run("lights-voxarray", 0.0, 1.0, 100.0, &[("eps_s_pct", 9.8), ("cell_m", 0.133)]), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("ε_s 9.8 %") && r.contains("0.133 m")), "{:?}", c.reasons);
         // Refined (`refine`): the reason says the rest are missed occluders, and a slower

@@ -9,7 +9,7 @@
 //!   primitive with the node's world transform (`parent · T · R · S`).
 //! * Materials (metallic-roughness): base colour factor (alpha ignored) × base colour texture
 //!   (8/16-bit images are sRGB-decoded to linear RGB with `srgb_decode`, float images taken as
-//!   linear), roughness and metallic factors, emission = `emissiveFactor` ×
+//!   linear; its `KHR_texture_transform` is applied to the primitive's uvs), roughness and metallic factors, emission = `emissiveFactor` ×
 //!   `KHR_materials_emissive_strength` (read from the raw JSON, since the workspace does not
 //!   enable that `gltf` feature). Emission is radiance in W/(m²·sr). An emissive texture is
 //!   approximated by its mean colour (warning). Metallic-roughness, normal and occlusion textures,
@@ -510,6 +510,9 @@ impl<'a> Loader<'a> {
                 self.ignore("NORMAL or TEXCOORD_0 accessors of an unexpected type or size");
             }
             let material = self.material(prim.material())?;
+            if let Some(transform) = self.base_color_uv_transform(&prim.material()) {
+                uvs.iter_mut().for_each(|uv| *uv = transform(*uv));
+            }
             let name = match mesh.name() {
                 Some(n) => format!("{n}.{}", prim.index()),
                 None => what.clone(),
@@ -563,6 +566,19 @@ impl<'a> Loader<'a> {
         let id = self.scene.add_material(mat);
         self.materials.insert(m.index(), id);
         Ok(id)
+    }
+
+    /// `KHR_texture_transform` on a material's base colour texture, as a map of the primitive's
+    /// uvs (the texture is the only one read, so its transform is the uvs'): offset · rotation ·
+    /// scale, as the extension defines them. `None` without one.
+    fn base_color_uv_transform(&mut self, m: &gltf::Material) -> Option<impl Fn(Vec2) -> Vec2 + use<>> {
+        let info = m.pbr_metallic_roughness().base_color_texture()?;
+        let t = info.texture_transform()?;
+        if t.tex_coord().is_some_and(|set| set != 0) {
+            self.ignore("texture coordinate sets other than TEXCOORD_0 (set 0 used)");
+        }
+        let ([ox, oy], [sx, sy], (sin, cos)) = (t.offset(), t.scale(), t.rotation().sin_cos());
+        Some(move |uv: Vec2| Vec2::new(cos * sx * uv.x + sin * sy * uv.y + ox, -sin * sx * uv.x + cos * sy * uv.y + oy))
     }
 
     /// Decodes an image into a linear texture (once); an image that cannot be read is a warning.

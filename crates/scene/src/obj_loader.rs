@@ -14,8 +14,9 @@
 //!   * `Kd` → `base_color` (absent: the default 0.8 grey); `Ke` → `emission`, read as radiance
 //!     in W/(m²·sr) (McGuire's Cornell box light: `Ke 17 12 4`). `Ka`, `Ks`, `Ni`, `d`, `illum`
 //!     are ignored. A colour with one number (`Kd 0.5`) means grey, as the MTL spec says.
-//!   * `map_Kd` → base-colour texture, the path relative to the `.mtl` (options such as `-s 1 1 1`
-//!     before the name are skipped); PNG/JPEG are sRGB-decoded to linear by
+//!   * `map_Kd` → base-colour texture, the path relative to the `.mtl`; its `-s u v` (scale) and
+//!     `-o u v` (offset) options map the object's uvs as `uv · s + o` (in the file's uv space,
+//!     before v is flipped); other options (`-clamp`, `-bm`, …) are ignored with a warning; PNG/JPEG are sRGB-decoded to linear by
 //!     [`glimpse_core::Image::read`]. A texture that cannot be read is a warning, not an error:
 //!     the material keeps its `Kd`.
 //!   * `Ns` → roughness with ONE mapping: Walter et al. 2007 (eq. 30) match a Phong lobe of
@@ -77,6 +78,22 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     }
 
     let mut textures = TextureCache::default();
+    // Each material's texture uv map (`-s`, `-o`), applied to the uvs of the faces that use it.
+    let uv_maps: Vec<(Vec2, Vec2)> = materials
+        .iter()
+        .map(|m| {
+            let statement = m.unknown_param.get(MAP_KD_STATEMENT).map_or("", String::as_str);
+            let (scale, offset, ignored) = texture_uv_options(statement);
+            if !ignored.is_empty() {
+                scene.warnings.push(format!(
+                    "{source}: material '{}': map_Kd options {} ignored (the texture repeats, unblended)",
+                    m.name,
+                    ignored.join(", ")
+                ));
+            }
+            (scale, offset)
+        })
+        .collect();
     let material_ids: Vec<u32> = materials
         .iter()
         .map(|m| {
@@ -99,7 +116,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
         let vertices = m.positions.len() / 3;
         let positions: Vec<Vec3> = m.positions.chunks_exact(3).map(|p| Vec3::new(p[0], p[1], p[2])).collect();
         let mut normals: Vec<Vec3> = m.normals.chunks_exact(3).map(|n| Vec3::new(n[0], n[1], n[2])).collect();
-        let mut uvs: Vec<Vec2> = m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], 1.0 - t[1])).collect();
+        let (scale, offset) = m.material_id.and_then(|i| uv_maps.get(i)).copied().unwrap_or((Vec2::ONE, Vec2::ZERO));
+        // The texture's own uv map, then v flipped to glTF's convention (v = 0 the top row).
+        let mut uvs: Vec<Vec2> =
+            m.texcoords.chunks_exact(2).map(|t| Vec2::new(t[0], t[1]) * scale + offset).map(|t| Vec2::new(t.x, 1.0 - t.y)).collect();
         if normals.len() != vertices && !normals.is_empty() {
             normals.clear();
             partial_attributes += 1;
@@ -247,8 +267,9 @@ fn load_mtl(path: &Path, problems: &RefCell<MtlProblems>) -> tobj::MTLLoadResult
         Ok((mut materials, names)) => {
             let dir = path.parent().unwrap_or(Path::new(""));
             for m in &mut materials {
-                if let Some(tex) = &m.diffuse_texture {
-                    m.diffuse_texture = Some(dir.join(texture_file_name(tex)).to_string_lossy().into_owned());
+                if let Some(tex) = m.diffuse_texture.clone() {
+                    m.diffuse_texture = Some(dir.join(texture_file_name(&tex)).to_string_lossy().into_owned());
+                    m.unknown_param.insert(MAP_KD_STATEMENT.to_owned(), tex);
                 }
             }
             Ok((materials, names))
@@ -275,6 +296,32 @@ fn normalize_mtl(text: &str) -> Result<String, String> {
         out.push('\n');
     }
     Ok(out)
+}
+
+/// Where the loader keeps a material's whole `map_Kd` statement (its options) beside tobj's
+/// unknown parameters (no MTL key has a space).
+const MAP_KD_STATEMENT: &str = "map_Kd statement";
+
+/// A texture statement's uv map: `-s u [v [w]]` scales and `-o u [v [w]]` offsets the uvs (the
+/// MTL spec's defaults: 1 and 0; w is for 3D textures), and the names of the options ignored.
+fn texture_uv_options(statement: &str) -> (Vec2, Vec2, Vec<String>) {
+    let words: Vec<&str> = statement.split_whitespace().collect();
+    let (mut scale, mut offset, mut ignored) = (Vec2::ONE, Vec2::ZERO, Vec::new());
+    let mut i = 0;
+    // Options come before the name, each a `-key` and its numbers.
+    while i + 1 < words.len() && words[i].starts_with('-') {
+        let key = words[i];
+        let numbers: Vec<f32> = words[i + 1..words.len() - 1].iter().map_while(|w| w.parse().ok()).collect();
+        let (u, v) = (numbers.first().copied(), numbers.get(1).copied());
+        match (key, u) {
+            ("-s", Some(u)) => scale = Vec2::new(u, v.unwrap_or(u)),
+            ("-o", Some(u)) => offset = Vec2::new(u, v.unwrap_or(0.0)),
+            _ => ignored.push(key.to_owned()),
+        }
+        // Non-numeric arguments (`-clamp on`, `-imfchan l`): one word.
+        i += 1 + numbers.len().max(usize::from(numbers.is_empty() && i + 2 < words.len()));
+    }
+    (scale, offset, ignored)
 }
 
 /// The file name in a `map_Kd` statement: options (`-s 1 1 1 -bm 0.5 name.png`) come first, so
@@ -410,6 +457,10 @@ mod tests {
     #[test]
     fn texture_statements_lose_their_options() {
         assert_eq!(texture_file_name("-s 1 1 1 -o 0 0 0 tex.png"), "tex.png");
+        let (s, o, ignored) = texture_uv_options("-s 2 3 1 -o 0.5 0.25 0 -clamp on -bm 0.5 tex.png");
+        assert_eq!((s, o, ignored), (Vec2::new(2.0, 3.0), Vec2::new(0.5, 0.25), vec!["-clamp".to_owned(), "-bm".to_owned()]));
+        assert_eq!(texture_uv_options("-s 4 tex.png"), (Vec2::splat(4.0), Vec2::ZERO, vec![]));
+        assert_eq!(texture_uv_options("tex.png"), (Vec2::ONE, Vec2::ZERO, vec![]));
         assert_eq!(texture_file_name("my tex.png "), "my tex.png");
         assert_eq!(texture_file_name("textures\\a.png"), "textures/a.png");
     }

@@ -805,3 +805,43 @@ fn a_mirrored_emitter_lights_the_side_its_placement_turned_it_to() {
     }
     assert_eq!(frame.emissive.len(), 6);
 }
+
+/// `KHR_texture_transform` on the base colour texture moves the primitive's uvs by offset ·
+/// rotation · scale (the extension's order); without it they are kept as they are (above).
+#[test]
+fn gltf_texture_transform_moves_the_uvs() {
+    let dir = scratch("gltf_texture_transform");
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let (rotation, [sx, sy], [ox, oy]) = (0.3f32, [2.0f32, 3.0f32], [0.5f32, -0.25f32]);
+    let json = gltf_json(Some(&uri)).replace(
+        r#""baseColorTexture": {"index": 0}"#,
+        &format!(
+            r#""baseColorTexture": {{"index": 0, "extensions": {{"KHR_texture_transform": {{"offset": [{ox}, {oy}], "rotation": {rotation}, "scale": [{sx}, {sy}]}}}}}}"#
+        ),
+    );
+    assert!(json.contains("KHR_texture_transform"));
+    let scene = load(&write(&dir, "transformed.gltf", json)).unwrap();
+    let (sin, cos) = rotation.sin_cos();
+    let expected = |u: f32, v: f32| Vec2::new(cos * sx * u + sin * sy * v + ox, -sin * sx * u + cos * sy * v + oy);
+    let uvs = &scene.meshes[0].uvs;
+    println!("uvs {uvs:?}");
+    for (uv, (u, v)) in uvs.iter().zip([(0.0, 0.0), (1.0, 0.0), (0.0, 1.0)]) {
+        assert!((*uv - expected(u, v)).length() < 1e-6, "{uv} vs {}", expected(u, v));
+    }
+}
+
+/// An MTL texture's `-s` and `-o` options map the uvs (in the OBJ's uv space, before v is
+/// flipped to glTF's); the other options are named in a warning.
+#[test]
+fn obj_texture_options_scale_and_offset_the_uvs() {
+    let dir = scratch("obj_texture_options");
+    Image::from_fn(2, 1, |x, _| Vec3::splat(x as f32)).write(&dir.join("tex.png"), ToneMap::default()).unwrap();
+    write(&dir, "m.mtl", "newmtl tiled\nKd 1 1 1\nmap_Kd -s 2 3 1 -o 0.5 0.25 0 -clamp on tex.png\n");
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nusemtl tiled\nf 1/1 2/2 3/3\n";
+    let scene = load(&write(&dir, "t.obj", obj)).unwrap();
+    let uvs = &scene.meshes[0].uvs;
+    println!("uvs {uvs:?}, warnings {:?}", scene.warnings);
+    let expected = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0)].map(|(u, v)| Vec2::new(u * 2.0 + 0.5, 1.0 - (v * 3.0 + 0.25)));
+    assert_eq!(uvs[..], expected[..]);
+    assert!(scene.warnings.iter().any(|w| w.contains("'tiled'") && w.contains("-clamp")), "{:?}", scene.warnings);
+}
