@@ -12,8 +12,11 @@
 //!   linear; its `KHR_texture_transform` is applied to the primitive's uvs), roughness and metallic factors, emission = `emissiveFactor` ×
 //!   `KHR_materials_emissive_strength` (read from the raw JSON, since the workspace does not
 //!   enable that `gltf` feature). Emission is radiance in W/(m²·sr). An emissive texture is
-//!   approximated by its mean colour (warning). Metallic-roughness, normal and occlusion textures,
-//!   alpha modes and texture sets other than 0 are ignored with one warning each.
+//!   approximated by its mean colour (warning). `KHR_materials_transmission` (factor ≥ 0.5) makes
+//!   the material smooth glass (the dielectric, `KHR_materials_ior`'s index or 1.5, tinted by
+//!   the base colour; a rough one with a warning). Metallic-roughness, normal and occlusion
+//!   textures, alpha modes and texture sets other than 0 are ignored with one warning each, and
+//!   every other extension the file uses is named in one warning.
 //! * Camera: the first perspective camera node in depth-first order, at time 0: position, target
 //!   = position + forward (the node's −Z), up (the node's +Y), `yfov`.
 //! * Lights (`KHR_lights_punctual`): point, spot (inner/outer cone half-angles) and directional,
@@ -39,7 +42,7 @@
 //!   vertex indices and NaN are left to [`crate::validate`].
 
 use crate::obj_loader::guard;
-use crate::{Camera, Instance, Light, Material, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
+use crate::{Camera, Instance, Light, Material, MaterialModel, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
 use glimpse_core::{Image, Mat4, Quat, Vec2, Vec3, Vec4};
@@ -47,6 +50,10 @@ use gltf::accessor::{DataType, Dimensions};
 use gltf::animation::{Interpolation, Property};
 use std::collections::{BTreeMap, HashMap};
 use std::path::{Path, PathBuf};
+
+/// The extensions this loader reads (any other the file uses is named in a warning).
+const READ_EXTENSIONS: [&str; 5] =
+    ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_texture_transform", "KHR_materials_transmission", "KHR_materials_ior"];
 
 pub fn load(path: &Path) -> Result<Scene, SceneError> {
     let bytes = read_bounded(path, "glTF file", limit::MESH).map_err(|e| SceneError::io(path, e.reason()))?;
@@ -214,6 +221,12 @@ impl<'a> Loader<'a> {
     }
 
     fn run(mut self, doc: &gltf::Document) -> Result<Scene, SceneError> {
+        // An extension the file uses and nothing here reads changes what the author sees, so
+        // it is named (a required one the `gltf` crate does not know is already an error).
+        let unread: Vec<&str> = doc.extensions_used().filter(|e| !READ_EXTENSIONS.contains(e)).collect();
+        if !unread.is_empty() {
+            self.warn(format!("ignored glTF extensions {} (their effect is not rendered)", unread.join(", ")));
+        }
         self.read_animations(doc)?;
         let roots: Vec<usize> = match doc.default_scene().or_else(|| doc.scenes().next()) {
             Some(s) => {
@@ -540,6 +553,17 @@ impl<'a> Loader<'a> {
                     self.ignore("texture coordinate sets other than TEXCOORD_0 (set 0 used)");
                 }
                 mat.base_color_texture = self.texture(info.texture().source())?;
+            }
+            // Glass (`KHR_materials_transmission`, most of the light transmitted): the smooth
+            // dielectric with `KHR_materials_ior`'s index (glTF's default 1.5), tinted by the base
+            // colour as glTF's transmission is; rough transmission is not modelled.
+            let extensions = &self.json["materials"][index]["extensions"];
+            if extensions["KHR_materials_transmission"]["transmissionFactor"].as_f64().unwrap_or(0.0) >= 0.5 {
+                let ior = extensions["KHR_materials_ior"]["ior"].as_f64().unwrap_or(1.5) as f32;
+                mat.model = MaterialModel::Dielectric { ior };
+                if mat.roughness > 0.0 {
+                    self.ignore("the roughness of transmitting materials (drawn as smooth glass)");
+                }
             }
             let strength = self.json["materials"][index]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"]
                 .as_f64()

@@ -845,3 +845,27 @@ fn obj_texture_options_scale_and_offset_the_uvs() {
     assert_eq!(uvs[..], expected[..]);
     assert!(scene.warnings.iter().any(|w| w.contains("'tiled'") && w.contains("-clamp")), "{:?}", scene.warnings);
 }
+
+/// A transmitting glTF material becomes smooth glass with its `KHR_materials_ior`; an
+/// extension the loader does not read is named in a warning.
+#[test]
+fn gltf_glass_and_unread_extensions() {
+    let dir = scratch("gltf_glass");
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let json = gltf_json(Some(&uri))
+        .replace(
+            r#""extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength"]"#,
+            r#""extensionsUsed": ["KHR_lights_punctual", "KHR_materials_emissive_strength", "KHR_materials_transmission", "KHR_materials_ior", "KHR_materials_clearcoat"]"#,
+        )
+        .replace(
+            r#""extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}}"#,
+            r#""extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 4}, "KHR_materials_transmission": {"transmissionFactor": 1.0}, "KHR_materials_ior": {"ior": 1.33}}"#,
+        );
+    assert!(json.contains("transmissionFactor") && json.contains("KHR_materials_clearcoat"));
+    let scene = load(&write(&dir, "glass.gltf", json)).unwrap();
+    let m = &scene.materials[scene.meshes[0].material as usize];
+    println!("material {m:?}\nwarnings {:?}", scene.warnings);
+    assert_eq!(m.model, glimpse_scene::MaterialModel::Dielectric { ior: 1.33 });
+    assert!(scene.warnings.iter().any(|w| w.contains("ignored glTF extensions KHR_materials_clearcoat")), "{:?}", scene.warnings);
+    assert!(scene.warnings.iter().any(|w| w.contains("roughness of transmitting materials")), "{:?}", scene.warnings);
+}
