@@ -282,6 +282,13 @@ pub struct WavecacheParams {
     pub trace_disagree: f32,
     /// `trace_disagree=auto` (the default): `trace_disagree` is chosen from the light sources.
     pub disagree_auto: bool,
+    /// `trace_lonely` (ours, session 25; `profile=paper`: false): where `trace_disagree` applies,
+    /// a diffuse pixel with no point inside the blend kernel (its nearest point of a like
+    /// normal lies beyond `blend_radius` × r_max) is traced too. On a curved surface (Suzanne's
+    /// brow and ears) the normal cutoff hands such a pixel a point 2–3 r_max away, lit or
+    /// shadowed unlike it (0.2 where `pt` has 1.9), and with one point there is no
+    /// disagreement to see. See docs/techniques/wavecache.md ("Disagreeing points").
+    pub trace_lonely: bool,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max
     /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
@@ -395,6 +402,7 @@ impl Default for WavecacheParams {
             trace_far: DEFAULT_TRACE_FAR,
             trace_disagree: f32::INFINITY,
             disagree_auto: true,
+            trace_lonely: true,
             blend: 4,
             blend_glossy: 2,
             blend_radius: 2.0,
@@ -438,6 +446,7 @@ impl WavecacheParams {
             trace_far: f32::INFINITY,
             trace_disagree: f32::INFINITY,
             disagree_auto: false,
+            trace_lonely: false,
             blend: 1,
             blend_glossy: 1,
             enclosed_share: 1.0,
@@ -473,6 +482,7 @@ impl WavecacheParams {
             trace_far: d.trace_far,
             trace_disagree: d.trace_disagree,
             disagree_auto: d.disagree_auto,
+            trace_lonely: d.trace_lonely,
             blend: d.blend,
             blend_glossy: d.blend_glossy,
             blend_radius: d.blend_radius,
@@ -540,6 +550,7 @@ impl WavecacheParams {
                 _ => params.f32("trace_disagree", base.trace_disagree, 1.0, f32::INFINITY)?,
             },
             disagree_auto: params.text("trace_disagree", if base.disagree_auto { "auto" } else { "inf" }) == "auto",
+            trace_lonely: params.bool("trace_lonely", base.trace_lonely)?,
             blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
             blend_glossy: params.u32("blend_glossy", base.blend_glossy, 1, technique::MAX_BLEND as u32)?,
             blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,

@@ -465,6 +465,12 @@ impl<'a> Runtime<'a> {
             reading.blended.iter_mut().for_each(|b| b.1 /= total);
         } else {
             reading.blended[0] = (Some(point), 1.0);
+            // No point inside the kernel (`trace_lonely`): where shadows are hard, the one point
+            // beyond it can hold another place's light, and nothing disagrees to show it.
+            let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
+            if diffuse && self.params.trace_lonely && self.trace_disagree.is_finite() {
+                reading.far = self.params.trace_far.is_finite();
+            }
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
         let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);

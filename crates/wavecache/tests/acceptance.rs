@@ -1113,6 +1113,54 @@ fn traced_disagreeing_pixels_are_bounded_by_their_points() {
     assert!(worst < 4.0, "a floor pixel at {worst}× pt");
 }
 
+/// `trace_lonely` (on where `trace_disagree` applies): a diffuse pixel with no cache point of
+/// a like normal inside its blend kernel is traced. On Suzanne under a strong sun the normal
+/// cutoff hands pixels of the brow, eyes and ears a point 2–3 r_max away, lit or shadowed unlike
+/// them, and with one point there is nothing to disagree. Skipped without ../shared.
+#[test]
+fn lonely_pixels_on_a_curved_surface_are_traced() {
+    let suzanne = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../../shared/scenes/suzanne/suzanne.obj");
+    if !suzanne.exists() {
+        println!("skipped: ../shared/scenes/suzanne is missing");
+        return;
+    }
+    let toml = format!(
+        "[camera]\nposition = [0.0, 0.9, 1.6]\ntarget = [0.0, 0.35, 0.0]\nfov_y_degrees = 35.0\n\
+         [environment]\nsky = {{ sun_direction = [0.6, 0.6, 0.5], sun_radiance = 500.0, width = 128 }}\n\
+         [[quad]]\nsize = [4.0, 4.0]\nmaterial = {{ base_color = [0.6, 0.6, 0.6] }}\n\
+         [[mesh]]\nfile = \"{}\"\nmatrix = [0.3,0,0,0, 0,0.3,0,0, 0,0,0.3,0, 0.75,-0.03,-1.23,1]\n\
+         material = {{ base_color = [0.7, 0.7, 0.7], roughness = 0.9 }}\n",
+        suzanne.display()
+    );
+    let scene = common::scene_from_toml(&toml);
+    let ctx = FrameContext::new(&scene, 0.0, 64, 48);
+    let g = ctx.gbuffer();
+    let reference = pt_reference(&ctx, &g, 1024, 5);
+    let run = |trace_lonely: bool| {
+        let p = WavecacheParams {
+            diffuse_points: 2000,
+            glossy_points: 200,
+            trace_disagree: 3.0,
+            disagree_auto: false,
+            trace_lonely,
+            ..small_params()
+        };
+        let mut t = Wavecache::with_params(&Settings { spp: 16, seed: 1 }, p);
+        t.prepare(&ctx).expect("prepare");
+        let mut img = ctx.image();
+        let stats = t.render(&ctx, &g, &mut img).expect("render");
+        (img, stats.metrics.iter().find(|(k, _)| k == "far_traced_pct").map_or(0.0, |(_, v)| *v))
+    };
+    let ((read, read_traced), (traced, traced_pct)) = (run(false), run(true));
+    let (e_read, e_traced) = (mse(&read, &reference), mse(&traced, &reference));
+    let ((b0, o0), (b1, o1)) = (faults(&read, &reference), faults(&traced, &reference));
+    println!(
+        "trace_lonely=false: {read_traced:.1} % traced, MSE {e_read:.3e}, {b0} black, {o0} over 2×; true: {traced_pct:.1} % traced, MSE {e_traced:.3e}, {b1} black, {o1} over 2×"
+    );
+    assert!(traced_pct > read_traced, "lonely pixels are traced");
+    assert!(e_traced < e_read && o1 <= o0, "MSE {e_read} → {e_traced}, over 2× {o0} → {o1}");
+}
+
 /// A shelf whose chamfered front edge (turned 60° from its top) has no cache point of its own
 /// (2 points on the shelf, both on the top), under a low sun in front: the query hands the
 /// edge's pixels a point of the top, near but outside the normal cutoff (another orientation's
