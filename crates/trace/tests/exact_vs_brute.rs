@@ -186,6 +186,49 @@ fn rays_from_surfaces_do_not_hit_their_own_triangle() {
     }
 }
 
+/// The same box 10 km and 1,000 km from the origin (coordinates whose rounding error is
+/// millimetres and metres): no secondary ray hits its own triangle, and the offset stays a few
+/// rounding errors, not a length of the scene: until session 25 it was 10⁻⁴ × the coordinates
+/// (1 m at 10 km, half the box), and contact shadows vanished from the references of a scene
+/// placed far from the origin.
+#[test]
+fn rays_far_from_the_origin_leave_their_triangle_by_a_few_rounding_errors() {
+    for far in [1e4f32, 1e6] {
+        let mut scene = glimpse_scene::load("cornell").unwrap();
+        let shift = Mat4::from_translation(Vec3::new(far, 0.0, far));
+        scene.instances.iter_mut().for_each(|i| i.motion = glimpse_scene::Motion::Fixed(shift * i.motion.at(0.0)));
+        let mut cam = scene.camera_or_default(1.0);
+        cam.position += Vec3::new(far, 0.0, far);
+        cam.target += Vec3::new(far, 0.0, far);
+        let frame = scene.at(0.0);
+        let tracer = ExactTracer::build(&frame);
+        let (mut self_hits, mut total, mut largest_offset) = (0, 0, 0.0f32);
+        let mut rng = Rng::new(3, 2);
+        for y in 0..64 {
+            for x in 0..64 {
+                let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
+                let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
+                let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
+                let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
+                let r = sp.spawn(d);
+                largest_offset = largest_offset.max((r.origin - sp.position).length());
+                if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
+                    self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
+                }
+                total += 1;
+            }
+        }
+        // γ₇ of the coordinates: the interpolated point's rounding-error bound.
+        let bound = 7.0 * f32::EPSILON / 2.0 / (1.0 - 7.0 * f32::EPSILON / 2.0) * far * 1.001;
+        println!(
+            "{far:e} from the origin: {self_hits} of {total} secondary rays hit their own triangle; largest offset {largest_offset:.3e} ({:.1}× the rounding bound)",
+            largest_offset / bound
+        );
+        assert_eq!(self_hits, 0);
+        assert!(largest_offset < 10.0 * bound, "offset {largest_offset} against the bound {bound}");
+    }
+}
+
 /// Points near the origin on a triangle that reaches 3,000 units out carry a rounding error of
 /// about γ₇ × 3,000 ≈ 10⁻³ units, ten times the old absolute offset (10⁻⁴ · max(|p|, 1)): their
 /// rays started on the wrong side of their own triangle. The offset relative to the point's
