@@ -155,6 +155,30 @@ fn bunny_from_shared_agrees_100_percent() {
     assert_eq!(closest, 1.0);
 }
 
+/// One cosine-weighted secondary ray from each of 64 × 64 camera hits of `scene` seen by `cam`:
+/// (rays that hit their own triangle again, rays, the largest origin offset).
+fn secondary_self_hits(scene: &Scene, cam: &glimpse_scene::Camera, seed: u64) -> (u32, u32, f32) {
+    let frame = scene.at(0.0);
+    let tracer = ExactTracer::build(&frame);
+    let (mut self_hits, mut total, mut largest_offset) = (0, 0, 0.0f32);
+    let mut rng = Rng::new(seed, 2);
+    for y in 0..64 {
+        for x in 0..64 {
+            let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
+            let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
+            let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
+            let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
+            let r = sp.spawn(d);
+            largest_offset = largest_offset.max((r.origin - sp.position).length());
+            if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
+                self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
+            }
+            total += 1;
+        }
+    }
+    (self_hits, total, largest_offset)
+}
+
 #[test]
 fn rays_from_surfaces_do_not_hit_their_own_triangle() {
     // At scale 10⁻³ the old offset floor (10⁻⁴ units) would be 5 % of the box; at 10³ the
@@ -162,25 +186,7 @@ fn rays_from_surfaces_do_not_hit_their_own_triangle() {
     for scale in [1.0, 1e-3, 1e3] {
         let mut scene = glimpse_scene::load("cornell").unwrap();
         scene.rescale(scale).unwrap();
-        let frame = scene.at(0.0);
-        let tracer = ExactTracer::build(&frame);
-        let cam = scene.camera_or_default(1.0);
-        let mut self_hits = 0;
-        let mut total = 0;
-        let mut rng = Rng::new(1, 2);
-        for y in 0..64 {
-            for x in 0..64 {
-                let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
-                let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
-                let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
-                let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
-                let r = sp.spawn(d);
-                if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
-                    self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
-                }
-                total += 1;
-            }
-        }
+        let (self_hits, total, _) = secondary_self_hits(&scene, &scene.camera_or_default(1.0), 1);
         println!("scale {scale}: self-intersections: {self_hits} of {total} secondary rays");
         assert_eq!(self_hits, 0);
     }
@@ -196,28 +202,11 @@ fn rays_far_from_the_origin_leave_their_triangle_by_a_few_rounding_errors() {
     for far in [1e4f32, 1e6] {
         let mut scene = glimpse_scene::load("cornell").unwrap();
         let shift = Mat4::from_translation(Vec3::new(far, 0.0, far));
-        scene.instances.iter_mut().for_each(|i| i.motion = glimpse_scene::Motion::Fixed(shift * i.motion.at(0.0)));
+        scene.instances.iter_mut().for_each(|i| i.motion = Motion::Fixed(shift * i.motion.at(0.0)));
         let mut cam = scene.camera_or_default(1.0);
         cam.position += Vec3::new(far, 0.0, far);
         cam.target += Vec3::new(far, 0.0, far);
-        let frame = scene.at(0.0);
-        let tracer = ExactTracer::build(&frame);
-        let (mut self_hits, mut total, mut largest_offset) = (0, 0, 0.0f32);
-        let mut rng = Rng::new(3, 2);
-        for y in 0..64 {
-            for x in 0..64 {
-                let ray = cam.ray(x as f32 * 4.0 + 2.0, y as f32 * 4.0 + 2.0, 256, 256);
-                let Some(hit) = tracer.closest_hit(&ray, f32::INFINITY) else { continue };
-                let sp = glimpse_trace::SurfacePoint::from_hit(&frame, &ray, &hit);
-                let d = glimpse_core::Frame::from_z(sp.normal).to_world(glimpse_core::sampling::cosine_hemisphere(rng.next_2d()));
-                let r = sp.spawn(d);
-                largest_offset = largest_offset.max((r.origin - sp.position).length());
-                if let Some(h2) = tracer.closest_hit(&r, f32::INFINITY) {
-                    self_hits += (h2.instance == hit.instance && h2.triangle == hit.triangle) as u32;
-                }
-                total += 1;
-            }
-        }
+        let (self_hits, total, largest_offset) = secondary_self_hits(&scene, &cam, 3);
         // γ₇ of the coordinates: the interpolated point's rounding-error bound.
         let bound = 7.0 * f32::EPSILON / 2.0 / (1.0 - 7.0 * f32::EPSILON / 2.0) * far * 1.001;
         println!(
