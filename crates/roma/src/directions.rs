@@ -14,6 +14,7 @@
 use glimpse_core::fast_math::atan_unit;
 use glimpse_core::{Frame, Rng, Vec2, Vec3};
 use std::f32::consts::FRAC_PI_4;
+use std::sync::OnceLock;
 
 /// Rays processed together by the batch path ([`CandidateSet::select_lanes`]).
 pub const LANES: usize = 8;
@@ -34,8 +35,9 @@ pub struct CandidateSet {
     pub dirs: Vec<Vec3>,
     /// The hemisphere's frame (z = [`HEMISPHERE_AXIS`]).
     pub hemisphere: Frame,
-    /// Each stratum's shape, for its mean cosine about a normal ([`CandidateSet::cosine_weight`]).
-    pub strata: Vec<Stratum>,
+    /// Each stratum's shape, for its mean cosine about a normal ([`CandidateSet::cosine_weight`]),
+    /// made at the first weight asked for: the count (the default) never needs it.
+    strata: OnceLock<Vec<Stratum>>,
 }
 
 /// Sub-strata per side of a stratum whose centres give its mean cosine where the horizon cuts
@@ -104,8 +106,7 @@ impl CandidateSet {
                 hemisphere.to_world(square_to_hemisphere(u)).normalize()
             })
             .collect();
-        let strata = (0..n * n).map(|k| Stratum::new(n, k / n, k % n, &hemisphere)).collect();
-        CandidateSet { n, dirs, hemisphere, strata }
+        CandidateSet { n, dirs, hemisphere, strata: OnceLock::new() }
     }
 
     /// The weight that makes a snapped sample unbiased for a cosine-weighted integral about
@@ -119,14 +120,21 @@ impl CandidateSet {
     /// and the sample's expectation is the stratum's cosine-weighted mean.
     #[inline]
     pub fn cosine_weight(&self, k: usize, sign: f32, normal: Vec3) -> f32 {
-        let n = normal * sign;
-        let cos = n.dot(self.dirs[k]).max(0.0);
+        // The stratum of `sign · dirs[k]` seen from `normal` is stratum k seen from `sign · normal`.
+        let facing = normal * sign;
+        let cos = facing.dot(self.dirs[k]).max(0.0);
         if cos <= 0.0 {
             return 0.0;
         }
-        let mean = self.strata[k].mean_cosine(n);
+        let mean = self.strata()[k].mean_cosine(facing);
         // The sub-strata can miss most of a sliver the horizon leaves: bound the weight there.
         (cos / mean.max(1e-6)).min(MAX_COSINE_WEIGHT)
+    }
+
+    /// The n² strata's shapes (made once per set, at the first call).
+    fn strata(&self) -> &[Stratum] {
+        let n = self.n;
+        self.strata.get_or_init(|| (0..n * n).map(|k| Stratum::new(n, k / n, k % n, &self.hemisphere)).collect())
     }
 
     pub fn len(&self) -> usize {

@@ -510,10 +510,10 @@ pub fn ambient_occlusion(
     let spp = spp as usize;
     let mut samples = vec![None; gbuffer.len() * spp];
     for (n, &i) in pixels.iter().enumerate() {
-        for j in n * spp..(n + 1) * spp {
+        for (slot, j) in samples[i * spp..(i + 1) * spp].iter_mut().zip(n * spp..) {
             let (k, sign) = f.candidates.select(queries[j].dir.into());
             let weight = if cosine_weight { f.candidates.cosine_weight(k, sign, gbuffer.shading_normal[i]) } else { 1.0 };
-            samples[i * spp + j - n * spp] = Some(SnappedSample { open: !occluded[j] as u8 as f32, weight });
+            *slot = Some(SnappedSample { open: !occluded[j] as u8 as f32, weight });
         }
     }
     let mut image = Image::new(gbuffer.width, gbuffer.height);

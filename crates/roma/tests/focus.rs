@@ -6,7 +6,6 @@
 use glimpse_core::{Image, Ray, Vec3};
 use glimpse_render::ao::AoExact;
 use glimpse_render::{FrameContext, Params, Settings, Stats, Technique};
-use glimpse_roma::technique::AoRoma;
 use glimpse_roma::{Roma, RomaParams};
 use glimpse_trace::{ClosestHit, Visibility};
 
@@ -20,17 +19,7 @@ fn rmse(a: &Image, b: &Image) -> f64 {
 
 /// `ao-roma` after 16 frames of 2 samples, and the last frame's stats.
 fn ao_roma(ctx: &mut FrameContext, focus: &str) -> (Image, Stats) {
-    let g = ctx.gbuffer();
-    let params = Params::parse(&["accumulate=16", focus]).unwrap();
-    let mut t = AoRoma::new(&Settings { spp: 2, seed: 3 }, &params).unwrap();
-    params.finish("ao-roma").unwrap();
-    let (mut img, mut stats) = (ctx.image(), Stats::default());
-    for k in 0..16 {
-        ctx.frame_index = k;
-        stats = t.prepare(ctx).unwrap();
-        t.render(ctx, &g, &mut img).unwrap();
-    }
-    (img, stats)
+    common::accumulated_ao_roma(ctx, 2, 3, 16, focus)
 }
 
 fn metric(stats: &Stats, key: &str) -> Option<f64> {

@@ -7,7 +7,8 @@
 use glimpse_core::Image;
 use glimpse_render::ao::AoExact;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
-use glimpse_roma::technique::AoRoma;
+
+mod common;
 
 /// A 20 m ground and a 4 × 1.5 m wall 4 m ahead of the camera, which looks down at the ground
 /// in front of it: every pixel's occluder (the wall) is low on its horizon.
@@ -25,21 +26,6 @@ fn mean(image: &Image) -> f64 {
     image.pixels.iter().map(|p| p.x as f64).sum::<f64>() / image.pixels.len() as f64
 }
 
-/// `ao-roma`'s running mean over 64 frames of 4 samples.
-fn ao_roma(ctx: &mut FrameContext, weight: &str) -> Image {
-    let g = ctx.gbuffer();
-    let params = Params::parse(&["accumulate=64", weight]).unwrap();
-    let mut t = AoRoma::new(&Settings { spp: 4, seed: 5 }, &params).unwrap();
-    params.finish("ao-roma").unwrap();
-    let mut img = ctx.image();
-    for k in 0..64 {
-        ctx.frame_index = k;
-        t.prepare(ctx).unwrap();
-        t.render(ctx, &g, &mut img).unwrap();
-    }
-    img
-}
-
 #[test]
 fn weighted_snapping_removes_the_ground_s_darkening() {
     let scene = ground_before_a_wall();
@@ -47,8 +33,8 @@ fn weighted_snapping_removes_the_ground_s_darkening() {
     let mut reference = ctx.image();
     AoExact::new(&Settings { spp: 1024, seed: 9 }, &Params::default()).unwrap().render(&ctx, &ctx.gbuffer(), &mut reference).unwrap();
     let exact = mean(&reference);
-    let counted = mean(&ao_roma(&mut ctx, "snap_weight=none")) - exact;
-    let weighted = mean(&ao_roma(&mut ctx, "snap_weight=cos")) - exact;
+    let counted = mean(&common::accumulated_ao_roma(&mut ctx, 4, 5, 64, "snap_weight=none").0) - exact;
+    let weighted = mean(&common::accumulated_ao_roma(&mut ctx, 4, 5, 64, "snap_weight=cos").0) - exact;
     println!("mean AO: ao-exact (1024 spp) {exact:.4}; ao-roma after 64 frames × 4 spp: counted {counted:+.4}, weighted {weighted:+.4}");
     assert!(counted < -0.01, "the paper's count darkens the ground: {counted:+.4}");
     assert!(weighted.abs() < 0.3 * counted.abs(), "weighted {weighted:+.4} against counted {counted:+.4}");

@@ -554,20 +554,20 @@ impl<'a> Loader<'a> {
                 }
                 mat.base_color_texture = self.texture(info.texture().source())?;
             }
-            // Glass (`KHR_materials_transmission`, most of the light transmitted): the smooth
-            // dielectric with `KHR_materials_ior`'s index (glTF's default 1.5), tinted by the base
-            // colour as glTF's transmission is; rough transmission is not modelled.
+            // Extensions the `gltf` crate's features do not read, from the raw JSON.
             let extensions = &self.json["materials"][index]["extensions"];
-            if extensions["KHR_materials_transmission"]["transmissionFactor"].as_f64().unwrap_or(0.0) >= 0.5 {
-                let ior = extensions["KHR_materials_ior"]["ior"].as_f64().unwrap_or(1.5) as f32;
+            let transmission = extensions["KHR_materials_transmission"]["transmissionFactor"].as_f64().unwrap_or(0.0);
+            let ior = extensions["KHR_materials_ior"]["ior"].as_f64().unwrap_or(1.5) as f32;
+            let strength = extensions["KHR_materials_emissive_strength"]["emissiveStrength"].as_f64().unwrap_or(1.0) as f32;
+            // Glass (most of the light transmitted): the smooth dielectric with `KHR_materials_ior`'s
+            // index (glTF's default 1.5), tinted by the base colour as glTF's transmission is;
+            // rough transmission is not modelled.
+            if transmission >= 0.5 {
                 mat.model = MaterialModel::Dielectric { ior };
                 if mat.roughness > 0.0 {
                     self.ignore("the roughness of transmitting materials (drawn as smooth glass)");
                 }
             }
-            let strength = self.json["materials"][index]["extensions"]["KHR_materials_emissive_strength"]["emissiveStrength"]
-                .as_f64()
-                .unwrap_or(1.0) as f32;
             mat.emission = Vec3::from_array(m.emissive_factor()) * strength;
             if let Some(info) = m.emissive_texture()
                 && mat.is_emissive()

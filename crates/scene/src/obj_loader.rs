@@ -318,8 +318,8 @@ fn texture_uv_options(statement: &str) -> (Vec2, Vec2, Vec<String>) {
             ("-o", Some(u)) => offset = Vec2::new(u, v.unwrap_or(0.0)),
             _ => ignored.push(key.to_owned()),
         }
-        // Non-numeric arguments (`-clamp on`, `-imfchan l`): one word.
-        i += 1 + numbers.len().max(usize::from(numbers.is_empty() && i + 2 < words.len()));
+        // A non-numeric argument (`-clamp on`, `-imfchan l`) is one word.
+        i += 1 + numbers.len().max(1);
     }
     (scale, offset, ignored)
 }

@@ -451,6 +451,7 @@ impl<'a> Runtime<'a> {
         // A biweight kernel of radius `blend_radius` × r_max times the normals' agreement,
         // inside the normal cutoff.
         let radius = self.params.blend_radius * mc.r_max;
+        let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
         let mut total = 0.0;
         for (slot, &(_, i)) in reading.blended.iter_mut().zip(&best[..found]) {
             let p = &pts[i as usize];
@@ -467,13 +468,11 @@ impl<'a> Runtime<'a> {
             reading.blended[0] = (Some(point), 1.0);
             // No point inside the kernel (`trace_lonely`): where shadows are hard, the one point
             // beyond it can hold another place's light, and nothing disagrees to show it.
-            let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
             if diffuse && self.params.trace_lonely && self.trace_disagree.is_finite() {
                 reading.far = self.params.trace_far.is_finite();
             }
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
-        let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
         if diffuse && blend > 1 && self.trace_disagree.is_finite() {
             let lum = |p: &CachePoint| glimpse_core::luminance(self.cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO));
             let (lo, hi) = reading.blended().map(|(p, _)| lum(p)).fold((f32::INFINITY, 0.0f32), |(lo, hi), l| (lo.min(l), hi.max(l)));
