@@ -116,6 +116,8 @@ struct Loader<'a> {
     materials: HashMap<Option<usize>, u32>,
     /// glTF image index → our texture id (`None`: could not be decoded).
     textures: HashMap<usize, Option<u32>>,
+    /// Image index → its raw channel means (data textures), read once.
+    data_means: HashMap<usize, Option<Vec3>>,
     /// Ignored features → how often, reported as one warning each.
     ignored: BTreeMap<&'static str, usize>,
 }
@@ -203,6 +205,7 @@ impl<'a> Loader<'a> {
             meshes: HashMap::new(),
             materials: HashMap::new(),
             textures: HashMap::new(),
+            data_means: HashMap::new(),
             ignored: BTreeMap::new(),
         };
         Ok((doc, loader))
@@ -577,8 +580,17 @@ impl<'a> Loader<'a> {
                     mat.emission *= self.scene.textures[id as usize].mean();
                 }
             }
-            if pbr.metallic_roughness_texture().is_some() {
-                self.ignore("metallic-roughness textures (factors used)");
+            // One BRDF per material: a metallic-roughness texture's mean stands in for its
+            // texels (G roughness, B metallic, glTF's channels). The BRDF is affine in metallic,
+            // so the mean keeps the material's average reflectance; roughness is averaged as a
+            // parameter. The factors alone (1 and 1 unless given) would make such a material
+            // an entirely rough metal.
+            if let Some(info) = pbr.metallic_roughness_texture() {
+                self.ignore("metallic-roughness textures (their mean used)");
+                if let Some(mean) = self.data_mean(info.texture().source())? {
+                    mat.roughness *= mean.y;
+                    mat.metallic *= mean.z;
+                }
             }
             if m.normal_texture().is_some() || m.occlusion_texture().is_some() {
                 self.ignore("normal and occlusion textures");
@@ -610,13 +622,54 @@ impl<'a> Loader<'a> {
         if let Some(&id) = self.textures.get(&image.index()) {
             return Ok(id);
         }
+        let index = image.index();
+        let id = match self.image_data(image)? {
+            Some(data) => match linear_image(&data) {
+                Some(img) => {
+                    self.scene.textures.push(img);
+                    Some(self.scene.textures.len() as u32 - 1)
+                }
+                None => {
+                    self.warn(format!("image {index}: pixel data does not match its size; texture ignored"));
+                    None
+                }
+            },
+            None => None,
+        };
+        self.textures.insert(index, id);
+        Ok(id)
+    }
+
+    /// The mean of an image's raw channels in [0, 1], not sRGB-decoded (a metallic-roughness
+    /// texture holds data, not colour); `None` (with a warning) where it cannot be read.
+    fn data_mean(&mut self, image: gltf::Image) -> Result<Option<Vec3>, SceneError> {
+        let index = image.index();
+        if let Some(&mean) = self.data_means.get(&index) {
+            return Ok(mean);
+        }
+        let mean = match self.image_data(image)? {
+            Some(data) => {
+                let mean = channel_means(&data);
+                if mean.is_none() {
+                    self.warn(format!("image {index}: pixel data does not match its size; its factors used alone"));
+                }
+                mean
+            }
+            None => None,
+        };
+        self.data_means.insert(index, mean);
+        Ok(mean)
+    }
+
+    /// An image's decoded pixels; one that cannot be found or decoded is a warning and `None`,
+    /// a buffer view outside its buffer an error.
+    fn image_data(&mut self, image: gltf::Image) -> Result<Option<gltf::image::Data>, SceneError> {
         let what = format!("image {}", image.index());
         // The typed `source()` unwraps these; gltf-json does not check them.
         let raw = &self.json["images"][image.index()];
         let usable = if raw["bufferView"].is_null() { raw["uri"].is_string() } else { raw["mimeType"].is_string() };
         if !usable {
             self.warn(format!("{what} has neither a uri nor a bufferView with a mimeType; texture ignored"));
-            self.textures.insert(image.index(), None);
             return Ok(None);
         }
         if let gltf::image::Source::View { view, .. } = image.source() {
@@ -630,32 +683,20 @@ impl<'a> Loader<'a> {
             && let Some(file) = uri_path(base, uri)
             && let Err(e) = check_file(&file, "texture", limit::IMAGE)
         {
-            self.warn(format!("{what} ('{uri}') not loaded ({e}); using the colour factor alone"));
-            self.textures.insert(image.index(), None);
+            self.warn(format!("{what} ('{uri}') not loaded ({e}); using the factor alone"));
             return Ok(None);
         }
-        let id = match gltf::image::Data::from_source(image.source(), Some(base), &self.buffers) {
-            Ok(data) => match linear_image(&data) {
-                Some(img) => {
-                    self.scene.textures.push(img);
-                    Some(self.scene.textures.len() as u32 - 1)
-                }
-                None => {
-                    self.warn(format!("{what}: pixel data does not match its size; texture ignored"));
-                    None
-                }
-            },
+        match gltf::image::Data::from_source(image.source(), Some(base), &self.buffers) {
+            Ok(data) => Ok(Some(data)),
             Err(e) => {
                 let uri = match image.source() {
                     gltf::image::Source::Uri { uri, .. } if !uri.starts_with("data:") => format!(" ('{uri}')"),
                     _ => String::new(),
                 };
-                self.warn(format!("{what}{uri} not loaded ({e}); using the colour factor alone"));
-                None
+                self.warn(format!("{what}{uri} not loaded ({e}); using the factor alone"));
+                Ok(None)
             }
-        };
-        self.textures.insert(image.index(), id);
-        Ok(id)
+        }
     }
 
     fn light(&mut self, light: &gltf::khr_lights_punctual::Light) -> Result<Light, SceneError> {
@@ -745,9 +786,36 @@ fn check_positions(json: &gltf::json::Value) -> Result<(), String> {
 /// glTF image data as linear RGB: 8- and 16-bit channels are sRGB-encoded colour (the spec's
 /// base-colour and emissive textures), float channels are already linear. `None` when the pixel
 /// buffer is shorter than its size says.
-fn linear_image(data: &gltf::image::Data) -> Option<Image> {
+/// The mean of each of an image's first three channels, raw in [0, 1] (one or two channels:
+/// grey); `None` where the pixel data does not match its size.
+fn channel_means(data: &gltf::image::Data) -> Option<Vec3> {
+    let (channels, bytes) = format_layout(data.format);
+    let (w, h) = (data.width as usize, data.height as usize);
+    let count = w.checked_mul(h)?;
+    if count == 0 || data.pixels.len() < count.checked_mul(channels * bytes)? {
+        return None;
+    }
+    let value = |i: usize| -> f64 {
+        let b = &data.pixels[i * bytes..(i + 1) * bytes];
+        match bytes {
+            1 => b[0] as f64 / 255.0,
+            2 => u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0,
+            _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f64,
+        }
+    };
+    let mut sum = [0.0f64; 3];
+    for p in 0..count {
+        for (c, s) in sum.iter_mut().enumerate() {
+            *s += value(p * channels + if channels < 3 { 0 } else { c });
+        }
+    }
+    Some(Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32) / count as f32)
+}
+
+/// (channels, bytes per channel) of a decoded glTF image format.
+fn format_layout(format: gltf::image::Format) -> (usize, usize) {
     use gltf::image::Format as F;
-    let (channels, bytes) = match data.format {
+    match format {
         F::R8 => (1, 1),
         F::R8G8 => (2, 1),
         F::R8G8B8 => (3, 1),
@@ -758,7 +826,11 @@ fn linear_image(data: &gltf::image::Data) -> Option<Image> {
         F::R16G16B16A16 => (4, 2),
         F::R32G32B32FLOAT => (3, 4),
         F::R32G32B32A32FLOAT => (4, 4),
-    };
+    }
+}
+
+fn linear_image(data: &gltf::image::Data) -> Option<Image> {
+    let (channels, bytes) = format_layout(data.format);
     let (w, h) = (data.width as usize, data.height as usize);
     if w == 0 || h == 0 || data.pixels.len() < w.checked_mul(h)?.checked_mul(channels * bytes)? {
         return None;

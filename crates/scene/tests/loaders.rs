@@ -869,3 +869,28 @@ fn gltf_glass_and_unread_extensions() {
     assert!(scene.warnings.iter().any(|w| w.contains("ignored glTF extensions KHR_materials_clearcoat")), "{:?}", scene.warnings);
     assert!(scene.warnings.iter().any(|w| w.contains("roughness of transmitting materials")), "{:?}", scene.warnings);
 }
+
+/// A metallic-roughness texture's mean (raw, not sRGB-decoded; G roughness, B metallic) scales
+/// the factors: real assets leave the factors at 1 and put the values in the texture, which
+/// read alone would make every such material a fully rough metal.
+#[test]
+fn gltf_metallic_roughness_texture_sets_the_mean() {
+    let dir = scratch("gltf_metallic_roughness");
+    let path = dir.join("mr.png");
+    // Stored sRGB-encoded: raw G is srgb_encode(0.2) in both texels, raw B 1 and 0.
+    Image::from_fn(2, 1, |x, _| Vec3::new(0.0, 0.2, if x == 0 { 1.0 } else { 0.0 })).write(&path, ToneMap::default()).unwrap();
+    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let json = gltf_json(Some(&uri))
+        .replace(r#""roughnessFactor": 0.25, "metallicFactor": 0.1,"#, r#""metallicRoughnessTexture": {"index": 1},"#)
+        // The new image goes first: texture 0 (the base colour) takes image 1, texture 1 image 0.
+        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
+        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    assert!(json.contains("metallicRoughnessTexture") && json.contains(r#"{"source": 1}"#));
+    let scene = load(&write(&dir, "mr.gltf", json)).unwrap();
+    let m = &scene.materials[scene.meshes[0].material as usize];
+    let roughness = (glimpse_core::image::srgb_encode(0.2) * 255.0).round() / 255.0;
+    println!("roughness {} (expected {roughness}), metallic {} (expected 0.5); warnings {:?}", m.roughness, m.metallic, scene.warnings);
+    assert!((m.roughness - roughness).abs() < 1e-3 && (m.metallic - 0.5).abs() < 1e-3);
+    assert!(scene.warnings.iter().any(|w| w.contains("metallic-roughness textures (their mean used)")), "{:?}", scene.warnings);
+}

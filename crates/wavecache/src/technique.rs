@@ -225,8 +225,8 @@ pub struct Runtime<'a> {
     /// cos of the query's normal cutoff (`normal_cutoff_deg`).
     normal_cutoff: f32,
     /// Environment samples (`env_direct`) at a pixel read from the cache: the render loop sets
-    /// `env_direct_samples` × spp, since it shades such a pixel once; a traced sample's hit
-    /// takes `env_direct_samples`.
+    /// [`pixel_env_samples`], since it shades such a pixel once; a traced sample's hit takes
+    /// `env_direct_samples`.
     pub pixel_env_samples: u32,
     /// The environment's sampler for `env_direct` (where some map has a visibility map).
     env_sampler: Option<Arc<EnvSampler>>,
@@ -235,6 +235,12 @@ pub struct Runtime<'a> {
     /// The diffuse points' irradiance includes the punctual lights
     /// ([`WavecacheParams::cache_punctual_above`]): cached diffuse pixels trace none.
     pub punctual_cached: bool,
+}
+
+/// `env_direct` samples at a pixel read from the cache, which is shaded once whatever the spp:
+/// `env_direct_samples` per pixel sample, at least `env_direct_pixel_samples`.
+pub fn pixel_env_samples(params: &WavecacheParams, spp: u32) -> u32 {
+    params.env_direct_samples.saturating_mul(spp.max(1)).max(params.env_direct_pixel_samples)
 }
 
 /// `env_direct`'s sampler of the frame's environment, where some map of `cache` has a
@@ -887,7 +893,7 @@ impl Technique for Wavecache {
         }
         let mut stats = Stats { memory_bytes: cache.memory_bytes(), ..Default::default() };
         let mut rt = Runtime::with_env_sampler(cache, &self.params, &ctx.frame, &ctx.tracer, self.env_sampler.clone());
-        rt.pixel_env_samples = self.params.env_direct_samples.saturating_mul(self.settings.spp.max(1));
+        rt.pixel_env_samples = pixel_env_samples(&self.params, self.settings.spp);
         let far_pixels = AtomicU64::new(0);
         stats.rays = stats.time("shade", || {
             let spp = self.settings.spp.max(1);

@@ -122,6 +122,13 @@ fn a_small_softbox_on_glossy_surfaces_matches_pt() {
     );
     assert!(glossy.len() > 200);
     assert!(e_split < 0.5 * e_whole, "env_direct must remove the aliased softbox: {e_split:.3e} vs {e_whole:.3e}");
+    // At 1 spp a pixel read from the cache still takes `env_direct_pixel_samples` (256), not
+    // `env_direct_samples` × 1 (8): the cache's pixels should not get noisier with fewer spp.
+    let one = Settings { spp: 1, seed: 1 };
+    let floored = mse(&render(&mut Wavecache::with_params(&one, params()), &ctx, &g));
+    let per_spp = mse(&render(&mut Wavecache::with_params(&one, WavecacheParams { env_direct_pixel_samples: 0, ..params() }), &ctx, &g));
+    println!("at 1 spp: MSE {floored:.3e} with 256 environment samples per pixel, {per_spp:.3e} with 8");
+    assert!(floored < 0.7 * per_spp, "the pixel floor must cut the samples' noise: {floored:.3e} vs {per_spp:.3e}");
     // The visibility maps keep the softbox's shadow: the floor behind the sphere stays dark.
     let floor = scene.materials.iter().position(|m| m.roughness == 0.35).unwrap() as u32;
     let shadow: Vec<usize> = (0..g.material.len())
