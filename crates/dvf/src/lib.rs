@@ -158,25 +158,22 @@ pub const SH_MAX_RELATIVE_NOISE: f32 = 0.25;
 /// diagonals): √(E[L²]/E[L]² − 1) / √N_r, by quadrature over the map's texels. 0 for a constant
 /// map; large for a map whose light comes from a few small bright regions.
 pub fn cosine_estimator_noise(env: &glimpse_scene::Environment, rays: u32) -> f32 {
-    use glimpse_core::{Vec2, Vec3, luminance};
+    use glimpse_core::{Vec3, luminance};
     use rayon::prelude::*;
     let mut normals: Vec<Vec3> = vec![Vec3::X, -Vec3::X, Vec3::Y, -Vec3::Y, Vec3::Z, -Vec3::Z];
     for s in 0..8 {
         let sign = |b: u32| if s >> b & 1 == 1 { -1.0 } else { 1.0 };
         normals.push(Vec3::new(sign(0), sign(1), sign(2)).normalize());
     }
-    let (w, h) = (env.image.width.max(64), env.image.height.max(32));
-    let pi = std::f32::consts::PI;
+    let grid = glimpse_scene::SphereGrid::for_map(env, 64, 32);
     // Per normal: Σ L cos dω and Σ L² cos dω (first and second moments, up to 1/π).
-    let moments = (0..h)
+    let moments = (0..grid.height)
         .into_par_iter()
         .map(|y| {
-            let (th0, th1) = (pi * y as f32 / h as f32, pi * (y + 1) as f32 / h as f32);
-            let d_omega = std::f32::consts::TAU / w as f32 * (th0.cos() - th1.cos());
+            let d_omega = grid.row_solid_angle(y);
             let mut m = vec![(0.0f64, 0.0f64); normals.len()];
-            for x in 0..w {
-                let d = glimpse_scene::Environment::uv_to_dir(Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32));
-                let l = luminance(env.radiance(d)).max(0.0) as f64;
+            grid.for_row(env, y, |d, l| {
+                let l = luminance(l).max(0.0) as f64;
                 for (m, n) in m.iter_mut().zip(&normals) {
                     let c = n.dot(d);
                     if c > 0.0 {
@@ -185,7 +182,7 @@ pub fn cosine_estimator_noise(env: &glimpse_scene::Environment, rays: u32) -> f3
                         m.1 += l * l * wgt;
                     }
                 }
-            }
+            });
             m
         })
         .reduce(

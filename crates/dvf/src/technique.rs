@@ -40,7 +40,7 @@ use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Techniq
 use glimpse_scene::{Environment, Scene};
 use glimpse_trace::{GBuffer, Visibility};
 use rayon::prelude::*;
-use std::f32::consts::{PI, TAU};
+use std::f32::consts::PI;
 use std::sync::atomic::Ordering;
 
 pub struct EnvDvf {
@@ -105,18 +105,13 @@ impl EnvDvf {
 /// of at least the map's resolution (and at least 128×64, so that tiny maps such as a constant
 /// 1×1 are integrated through `radiance`'s bilinear lookup, not as one texel).
 pub fn project_environment(env: &Environment) -> Sh9 {
-    let (w, h) = (env.image.width.max(128), env.image.height.max(64));
-    let rows: Vec<Sh9> = (0..h)
+    let grid = glimpse_scene::SphereGrid::for_map(env, 128, 64);
+    let rows: Vec<Sh9> = (0..grid.height)
         .into_par_iter()
         .map(|y| {
-            let th0 = PI * y as f32 / h as f32;
-            let th1 = PI * (y + 1) as f32 / h as f32;
-            let d_omega = TAU / w as f32 * (th0.cos() - th1.cos());
+            let d_omega = grid.row_solid_angle(y);
             let mut sh = Sh9::default();
-            for x in 0..w {
-                let d = Environment::uv_to_dir(glimpse_core::Vec2::new((x as f32 + 0.5) / w as f32, (y as f32 + 0.5) / h as f32));
-                sh.add_sample(d, env.radiance(d), d_omega);
-            }
+            grid.for_row(env, y, |d, l| sh.add_sample(d, l, d_omega));
             sh
         })
         .collect();

@@ -190,6 +190,37 @@ mod tests {
     use super::*;
     use glimpse_core::Rng;
 
+    /// A grid over a map's own texels gives `uv_to_dir`'s directions bit for bit, the texels
+    /// as `radiance` reads them at their centres, and cells that tile the sphere; a finer grid
+    /// over a coarse map reads it bilinearly.
+    #[test]
+    fn a_sphere_grid_walks_the_maps_texels() {
+        let env = Environment::new(
+            Image::from_fn(48, 24, |x, y| {
+                let mut rng = Rng::new(3, (y * 48 + x) as u64);
+                Vec3::new(rng.next_f32(), rng.next_f32(), 4.0 * rng.next_f32())
+            }),
+            2.0,
+        );
+        for (grid, own) in [(SphereGrid::for_map(&env, 16, 8), true), (SphereGrid::for_map(&env, 64, 32), false)] {
+            assert_eq!((grid.width == 48, grid.height == 24), (own, own));
+            let mut solid_angle = 0.0f64;
+            for y in 0..grid.height {
+                let mut x = 0;
+                grid.for_row(&env, y, |d, l| {
+                    let uv = Vec2::new((x as f32 + 0.5) / grid.width as f32, (y as f32 + 0.5) / grid.height as f32);
+                    assert_eq!(d, Environment::uv_to_dir(uv));
+                    let expected = env.radiance(d);
+                    assert!((l - expected).abs().max_element() <= 1e-4 * expected.max_element().max(1.0), "({x}, {y}): {l} vs {expected}");
+                    x += 1;
+                });
+                assert_eq!(x, grid.width);
+                solid_angle += grid.row_solid_angle(y) as f64 * grid.width as f64;
+            }
+            assert!((solid_angle - 4.0 * std::f64::consts::PI).abs() < 1e-4, "{solid_angle}");
+        }
+    }
+
     /// Uniform: half the power comes from half the sphere. One bright texel holding most of the
     /// power: its own solid angle.
     #[test]
@@ -266,5 +297,55 @@ mod tests {
             .sum();
         println!("importance estimate {est:.3} vs texel integral {exact:.3}");
         assert!((est - exact).abs() / exact < 0.02);
+    }
+}
+
+/// A latitude-longitude grid of `width × height` cells over the sphere, laid out as an
+/// equirectangular map's texels, for integrals over the whole environment (SH projection,
+/// moments). Each cell's direction is [`Environment::uv_to_dir`] at its centre, bit for bit;
+/// the column angles' sines and cosines are computed once instead of per cell.
+#[derive(Clone, Debug)]
+pub struct SphereGrid {
+    pub width: u32,
+    pub height: u32,
+    /// (sin φ, cos φ) of each column's centre.
+    columns: Vec<(f32, f32)>,
+}
+
+impl SphereGrid {
+    pub fn new(width: u32, height: u32) -> Self {
+        let columns = (0..width)
+            .map(|x| {
+                let u = (x as f32 + 0.5) / width as f32;
+                (TAU * (u - 0.5)).sin_cos()
+            })
+            .collect();
+        Self { width, height, columns }
+    }
+
+    /// The grid of `env`'s own texels, or at least `min_width × min_height` cells for a coarser
+    /// map (which is then read by bilinear lookups).
+    pub fn for_map(env: &Environment, min_width: u32, min_height: u32) -> Self {
+        Self::new(env.image.width.max(min_width), env.image.height.max(min_height))
+    }
+
+    /// The solid angle of each cell of row `y`.
+    pub fn row_solid_angle(&self, y: u32) -> f32 {
+        let (th0, th1) = (PI * y as f32 / self.height as f32, PI * (y + 1) as f32 / self.height as f32);
+        TAU / self.width as f32 * (th0.cos() - th1.cos())
+    }
+
+    /// `f(direction, radiance)` for each cell of row `y`: the texel itself (× scale) where the
+    /// grid is the map's own, else [`Environment::radiance`] at the cell's direction (bilinear
+    /// at a texel centre is that texel up to rounding).
+    pub fn for_row(&self, env: &Environment, y: u32, mut f: impl FnMut(Vec3, Vec3)) {
+        let (sin_theta, cos_theta) = (PI * ((y as f32 + 0.5) / self.height as f32)).sin_cos();
+        let own = env.image.width == self.width && env.image.height == self.height;
+        let row = (y * self.width) as usize;
+        for (x, &(sin_phi, cos_phi)) in self.columns.iter().enumerate() {
+            let d = Vec3::new(sin_theta * sin_phi, cos_theta, -sin_theta * cos_phi);
+            let l = if own { env.image.pixels[row + x] * env.scale } else { env.radiance(d) };
+            f(d, l);
+        }
     }
 }
