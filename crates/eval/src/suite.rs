@@ -392,9 +392,14 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
     if let (Some(eps), Some(cell)) = (m("eps_s_pct").filter(|&e| run.technique == "lights-voxarray" && e > 3.0), m("cell_m")) {
         reasons.push(match m("refined_pct") {
             // Refined: no false shadow is left, only occluders the array misses.
-            Some(share) => format!(
-                "ε_s {eps:.1} % after exact rays confirmed its occluded answers ({share:.0} % of the decisions): occluders the array misses, within the start offset or thinner than its cells of {cell:.3} m (128³, the maximum)"
-            ),
+            Some(share) => match m("near_m") {
+                Some(near) => format!(
+                    "ε_s {eps:.1} % after exact rays confirmed its occluded answers ({share:.0} % of the decisions) and the first {near:.3} m of its visible ones: occluders the array misses beyond them, thinner than its cells of {cell:.3} m (128³, the maximum)"
+                ),
+                None => format!(
+                    "ε_s {eps:.1} % after exact rays confirmed its occluded answers ({share:.0} % of the decisions): occluders the array misses, within the start offset or thinner than its cells of {cell:.3} m (128³, the maximum)"
+                ),
+            },
             None => format!(
                 "ε_s {eps:.1} % with the grid at its 128³ maximum: cells of {cell:.3} m; resolution-bound (the wrong decisions are false shadows along long segments that pass within a cell of geometry and occluders missed within the 2.5-cell start offset; 64³ → 128³ cut them by 40 %: docs/suite.md; refine=exact removes the false shadows)"
             ),
@@ -482,9 +487,12 @@ fn slower_reason(run: &Run, reference_ms: f64, pixels: u64) -> String {
     };
     // `lights-voxarray` with `refine`: its shading includes exact rays.
     match run.metrics.get("refined_pct") {
-        Some(share) => {
-            format!("{why}; its shading traces the exact ray for the {share:.0} % of decisions the array calls occluded (refine)")
-        }
+        Some(share) => match run.metrics.get("near_m") {
+            Some(near) => format!(
+                "{why}; its shading traces the exact ray for the {share:.0} % of decisions the array calls occluded, and its first {near:.2} m for the others (refine)"
+            ),
+            None => format!("{why}; its shading traces the exact ray for the {share:.0} % of decisions the array calls occluded (refine)"),
+        },
         None => why,
     }
 }
@@ -909,6 +917,11 @@ mod tests {
         let c = cell("s", &run("lights-voxarray", 0.0, 5.0, 4.0, &refined), "s", 6000, 4, 64);
         assert!(c.reasons.iter().any(|r| r.contains("ε_s 3.4 % after exact rays") && r.contains("misses")), "{:?}", c.reasons);
         assert!(c.reasons.iter().any(|r| r.contains("shading alone is slower") && r.contains("57 % of decisions")), "{:?}", c.reasons);
+        // With near checks (`refine_near`) both reasons name their length.
+        let near = [("eps_s_pct", 3.4), ("cell_m", 0.133), ("refined_pct", 57.0), ("near_m", 0.266)];
+        let c = cell("s", &run("lights-voxarray", 0.0, 5.0, 4.0, &near), "s", 6000, 4, 64);
+        assert!(c.reasons.iter().any(|r| r.contains("first 0.266 m of its visible ones") && r.contains("beyond them")), "{:?}", c.reasons);
+        assert!(c.reasons.iter().any(|r| r.contains("57 % of decisions") && r.contains("first 0.27 m for the others")), "{:?}", c.reasons);
         let dvf = [("map_noise", 0.05), ("rmse_same_samples", 0.02), ("points", 10_000.0), ("grid", 20.0)];
         let c = cell("s", &run("env-dvf", 0.0, 1.0, 100.0, &dvf), "s", 6000, 4, 64);
         assert!(!c.pass && c.reasons.iter().any(|r| r.contains("RMSE 0.0200") && r.contains("10000 points, the floor")), "{:?}", c.reasons);

@@ -92,7 +92,7 @@ impl Technique for GpuLightsVoxArray {
         let lights = &ctx.frame.lights[..ctx.frame.lights.len().min(self.cpu.lights as usize)];
         let block = (SEGMENTS_PER_BATCH / lights.len().max(1)).max(1);
         let gpu = &self.gpu;
-        let refine = self.cpu.refine;
+        let refine = self.cpu.refine_for(structure, &ctx.tracer);
         let mut times = Vec::new();
         let shade = || -> Result<u64, RenderError> {
             let mut decisions = 0u64;
@@ -112,11 +112,11 @@ impl Technique for GpuLightsVoxArray {
                 let segments: Vec<(Vec3, Vec3)> = samples.iter().flatten().map(|(_, seg, _)| *seg).collect();
                 let mut occluded =
                     if segments.is_empty() { Vec::new() } else { gpu_structure.occluded_segments(gpu, &segments).map_err(gpu_error)? };
-                if refine {
-                    // `refine`: the GPU's occluded answers confirmed by the CPU's exact tracer
-                    // (the CPU technique's rule; no exact GPU tracer is wired in here).
+                if let Some(r) = refine {
+                    // `refine`: the GPU's answers checked by the CPU's exact tracer (the CPU
+                    // technique's rule; no exact GPU tracer is wired in here).
                     let flat: Vec<&direct::PunctualSample> = samples.iter().flatten().map(|(_, _, ps)| ps).collect();
-                    occluded.par_iter_mut().zip(flat).for_each(|(o, ps)| *o = *o && ctx.tracer.occluded(&ps.shadow, ps.t_max));
+                    occluded.par_iter_mut().zip(flat).for_each(|(o, ps)| *o = r.occluded(*o, ps));
                 }
                 times.append(&mut gpu_structure.take_times());
                 decisions += segments.len() as u64;
@@ -146,7 +146,8 @@ impl Technique for GpuLightsVoxArray {
         if self.cpu.epsilon {
             // The CPU structure's decisions, which the GPU's equal (docs/gpu.md, parity).
             let e = crate::epsilon::epsilon(&ctx.frame, gbuffer, &ctx.tracer, lights.len(), |_, ps, s| {
-                structure.occluded_from_surface(ps, s.normal) && (!refine || ctx.tracer.occluded(&ps.shadow, ps.t_max))
+                let o = structure.occluded_from_surface(ps, s.normal);
+                refine.map_or(o, |r| r.occluded(o, ps))
             });
             stats.metrics = e.to_metrics();
         }

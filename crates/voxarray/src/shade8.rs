@@ -28,11 +28,12 @@
 use crate::batch::LANES;
 use crate::query;
 use crate::row::Row;
+use crate::technique::Refine;
 use crate::{Array, extent8};
 use glimpse_core::Vec3;
 use glimpse_render::direct::{self, Shading};
 use glimpse_scene::{LightKind, WorldLight};
-use glimpse_trace::{GBuffer, Visibility};
+use glimpse_trace::GBuffer;
 
 /// Per-thread buffers of one tile, reused from tile to tile.
 #[derive(Default)]
@@ -54,6 +55,8 @@ pub struct Tile {
     /// Per group of [`LANES`] slots: the lanes that receive the current light (they face it
     /// with some irradiance and are not occluded).
     visible: Vec<u32>,
+    /// Per group: the lanes `refine` traced a full exact ray for (scratch for `shade_light`).
+    traced: Vec<u32>,
     /// The current light's shadow segments of the slots that face it, packed: start x, y, z,
     /// end x, y, z (pass 1 then runs on full lanes).
     seg: [Vec<f32>; 6],
@@ -123,9 +126,10 @@ impl Tile {
 
     /// Adds `light`'s unoccluded Lambertian term to every hit pixel of the tile; returns the
     /// shadow decisions made (the pixels that face the light with some irradiance).
-    /// `confirm` (`refine`, [`crate::technique`]): an occluded answer stands only if this exact
-    /// tracer agrees on `lights-exact`'s own shadow ray.
-    pub fn shade_light<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, simd: bool, confirm: Option<&dyn Visibility>) -> u64 {
+    /// `refine` ([`crate::technique::Refine`]): an occluded answer stands only if the exact
+    /// tracer agrees on `lights-exact`'s own shadow ray, and a visible one only if that ray's
+    /// first `near` units are clear.
+    pub fn shade_light<R: Row>(&mut self, array: &Array<R>, light: &WorldLight, simd: bool, refine: Option<Refine>) -> u64 {
         let simd = simd && extent8::avx2_available();
         let mut decisions = 0u64;
         // The facing test, the contributions and the packed segments, group by group.
@@ -172,16 +176,34 @@ impl Tile {
         }
         // Passes 2 and 3: every row load of the tile × light in flight together.
         let (visible, slots, n, shading, confirmed) = (&mut self.visible, &self.q_slot, self.queries, &self.shading, &mut self.confirmed);
+        // The lanes whose full exact ray was traced (their near part needs no second look).
+        let traced = &mut self.traced;
+        traced.clear();
+        traced.resize(visible.len(), 0);
         array.occluded_rows(&mut self.q_row[..n], &self.q_s[..n], &self.q_e[..n], |q| {
             let slot = slots[q] as usize;
-            if let Some(exact) = confirm {
+            if let Some(r) = refine {
                 *confirmed += 1;
-                if !crate::technique::exactly_occluded(exact, light, &shading[slot]) {
+                traced[slot / LANES] |= 1 << (slot % LANES);
+                if !crate::technique::exactly_occluded(r.exact, light, &shading[slot]) {
                     return;
                 }
             }
             visible[slot / LANES] &= !(1 << (slot % LANES));
         });
+        if let Some(r) = refine.filter(|r| r.near > 0.0) {
+            for (g, (lanes, &traced)) in visible.iter_mut().zip(traced.iter()).enumerate() {
+                let mut unchecked = *lanes & !traced;
+                while unchecked != 0 {
+                    let k = unchecked.trailing_zeros() as usize;
+                    unchecked &= unchecked - 1;
+                    let s = &shading[g * LANES + k];
+                    if r.occluded(false, &direct::punctual(light, s.position, s.normal, s.error_scale)) {
+                        *lanes &= !(1 << k);
+                    }
+                }
+            }
+        }
         // The Lambertian sum.
         for (g, &visible) in self.visible.iter().enumerate() {
             if visible == 0 {

@@ -1,6 +1,7 @@
 //! `refine` (ours, `glimpse_voxarray::technique::REFINE_BELOW_LIGHTS`): with few lights the
 //! array's "occluded" answers are confirmed by `lights-exact`'s own ray, so no false shadow is
-//! left and the error is the array's missed occluders alone.
+//! left and the error is the array's missed occluders alone; and (`refine_near`) its "visible"
+//! answers by that ray's first cells, where the start offsets step over contact occluders.
 
 use glimpse_render::{FrameContext, Params, Settings, Technique};
 use glimpse_voxarray::technique::{LightsVoxArray, REFINE_BELOW_LIGHTS};
@@ -46,8 +47,10 @@ fn refined_decisions_have_no_false_shadows() {
     let g = ctx.gbuffer();
     let render = |refine: &str| {
         let r = format!("refine={refine}");
-        // One array for both: the paper-side offsets given explicitly.
-        let args = ["resolution=32", "directions=16", "disk_cache=false", "normal_offset=1.5", "bias=1", "bias_light=1", &r];
+        // One array for both: the paper-side offsets given explicitly; the visible answers
+        // as the array gives them (`refine_near=0`, below).
+        let args =
+            ["resolution=32", "directions=16", "disk_cache=false", "normal_offset=1.5", "bias=1", "bias_light=1", "refine_near=0", &r];
         let mut t = technique(&scene, &args);
         t.prepare(&ctx).unwrap();
         let mut img = ctx.image();
@@ -69,4 +72,36 @@ fn refined_decisions_have_no_false_shadows() {
     println!("{brighter} pixels gained light, {darker} lost some");
     assert_eq!(darker, 0);
     assert!(brighter > 0);
+}
+
+/// `refine_near` (default 2 cells): a visible answer stands only if the exact ray's first cells
+/// are clear. On a coarse array whose start offsets step over the contact occluders it removes
+/// misses (ε_v falls) and adds no false shadow (signed ε_s = ε_v: every check is exact); it
+/// only ever takes light away from the `refine_near=0` image.
+#[test]
+fn near_checks_catch_the_occluders_the_start_offsets_skip() {
+    let scene = glimpse_scene::builtin::cornell_lit();
+    let ctx = FrameContext::new(&scene, 0.0, 48, 48);
+    let g = ctx.gbuffer();
+    let render = |near: Option<&str>| {
+        // Wide start offsets on a coarse array: misses to find.
+        let mut args =
+            vec!["resolution=32", "directions=16", "disk_cache=false", "normal_offset=2", "bias=1", "bias_light=1", "refine=exact"];
+        args.extend(near);
+        let mut t = technique(&scene, &args);
+        assert_eq!(t.refine_near_cells, if near.is_some() { 0.0 } else { glimpse_voxarray::technique::REFINE_NEAR_CELLS });
+        t.prepare(&ctx).unwrap();
+        let mut img = ctx.image();
+        let stats = t.render(&ctx, &g, &mut img).unwrap();
+        let metric = |k: &str| stats.metrics.iter().find(|(n, _)| n == k).map(|(_, v)| *v).unwrap();
+        (img, metric("eps_v_pct"), metric("eps_s_signed_pct"))
+    };
+    let (far_only, v0, _) = render(Some("refine_near=0"));
+    let (near, v1, s1) = render(None);
+    println!("32³, offsets 2 / 1 / 1 cells: ε_v {v0:.2} % without near checks, {v1:.2} % with 2 cells");
+    assert!(v0 > 0.5, "the wide offsets must miss occluders: ε_v {v0}");
+    assert!(v1 < 0.5 * v0, "the near checks must remove most misses: {v0} → {v1}");
+    assert!((s1 - v1).abs() < 1e-9, "no false shadow: signed ε_s {s1} = ε_v {v1}");
+    let brighter = far_only.pixels.iter().zip(&near.pixels).filter(|(f, n)| (**n - **f).max_element() > 0.0).count();
+    assert_eq!(brighter, 0, "a near check only takes light away");
 }
