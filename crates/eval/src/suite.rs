@@ -389,6 +389,16 @@ fn cell(scene: &str, run: &Run, sub: &str, pixels: u64, spp: u32, ref_spp: u32) 
             "RMSE {rmse:.4} at the automatic sample budget for {pixels} pixels: {points:.0} points{floor}, grid {grid:.0} (points=auto follows the image size){sh}"
         ));
     }
+    if run.memory_bytes as u64 > MEMORY_LIMIT_BYTES {
+        let gib = |b: f64| b / (1u64 << 30) as f64;
+        let parts = match (m("brdf_tables"), m("brdf_mib"), m("lighting_mib")) {
+            (Some(n), Some(brdf), Some(light)) => {
+                format!(": {n:.0} distinct BRDF tables take {:.2} GiB, the lighting cache {:.2} GiB", brdf / 1024.0, light / 1024.0)
+            }
+            _ => String::new(),
+        };
+        reasons.push(format!("its structures take {:.2} GiB, over the 4 GiB target{parts}", gib(run.memory_bytes as f64)));
+    }
     if let (Some(eps), Some(cell)) = (m("eps_s_pct").filter(|&e| run.technique == "lights-voxarray" && e > 3.0), m("cell_m")) {
         reasons.push(match m("refined_pct") {
             // Refined: no false shadow is left, only occluders the array misses.
@@ -917,6 +927,16 @@ mod tests {
         let c = cell("s", &run("lights-voxarray", 0.0, 5.0, 4.0, &refined), "s", 6000, 4, 64);
         assert!(c.reasons.iter().any(|r| r.contains("ε_s 3.4 % after exact rays") && r.contains("misses")), "{:?}", c.reasons);
         assert!(c.reasons.iter().any(|r| r.contains("shading alone is slower") && r.contains("57 % of decisions")), "{:?}", c.reasons);
+        // Over the memory target: the reason says how much, and the wavelet cache's parts.
+        let big = [("brdf_tables", 320.0), ("brdf_mib", 7000.0), ("lighting_mib", 200.0)];
+        let mut r = run("wavecache", 0.0, 5.0, 4.0, &big);
+        r.memory_bytes = (7.2 * (1u64 << 30) as f64) as usize;
+        let c = cell("s", &r, "s", 6000, 4, 64);
+        assert!(
+            c.reasons.iter().any(|r| r.contains("7.20 GiB, over the 4 GiB target") && r.contains("320 distinct BRDF tables")),
+            "{:?}",
+            c.reasons
+        );
         // With near checks (`refine_near`) both reasons name their length.
         let near = [("eps_s_pct", 3.4), ("cell_m", 0.133), ("refined_pct", 57.0), ("near_m", 0.266)];
         let c = cell("s", &run("lights-voxarray", 0.0, 5.0, 4.0, &near), "s", 6000, 4, 64);

@@ -126,26 +126,30 @@ impl WaveCache {
 
         // BRDFs (only materials used by a glossy instance).
         let sw = Stopwatch::start();
+        let mut tabulated: std::collections::HashMap<String, BrdfTable> = std::collections::HashMap::new();
         for (mi, m) in scene.materials.iter().enumerate() {
             let used = scene
                 .instances
                 .iter()
                 .enumerate()
                 .any(|(ii, i)| scene.meshes[i.mesh as usize].material as usize == mi && inst_class[ii] == Class::Glossy);
-            let mb = MaterialBrdf { model: p.brdf, material: m.model, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
-            let beta = bake::brdf_beta(m.roughness, p.brdf_beta_scale);
+            let (mb, beta) = material_brdf(p, m);
+            // Materials with equal BRDF parameters share one table (the headers point at the
+            // same trees).
             let mut tabulate = |mb: &MaterialBrdf| {
-                brdf::tabulate(
-                    mb,
-                    p.brdf_grid_u1,
-                    p.brdf_grid_u2,
-                    p.brdf_res,
-                    p.brdf_strata,
-                    beta,
-                    &mut c.brdf_nodes,
-                    &mut c.brdf_trees,
-                    tick,
-                )
+                *tabulated.entry(brdf_key(mb, beta)).or_insert_with(|| {
+                    brdf::tabulate(
+                        mb,
+                        p.brdf_grid_u1,
+                        p.brdf_grid_u2,
+                        p.brdf_res,
+                        p.brdf_strata,
+                        beta,
+                        &mut c.brdf_nodes,
+                        &mut c.brdf_trees,
+                        tick,
+                    )
+                })
             };
             let table = if used { tabulate(&mb) } else { BrdfTable::default() };
             let black = if used && m.base_color_texture.is_some() {
@@ -288,19 +292,23 @@ impl WaveCache {
         )
     }
 
-    /// BRDF tables the build tabulates: one per material used by a glossy instance, two where
-    /// its base colour is textured ([`WaveCache::brdf_black`]).
-    fn brdf_table_count(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+    /// BRDF tables the build tabulates: one per distinct BRDF among the materials used by a
+    /// glossy instance, and one with a black base per distinct textured one
+    /// ([`WaveCache::brdf_black`]); materials with equal parameters share them.
+    pub fn brdf_table_count(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
         let scene = frame.scene;
-        scene
-            .materials
-            .iter()
-            .enumerate()
-            .filter(|(mi, m)| {
-                p.classify(m) == Class::Glossy && scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == *mi)
-            })
-            .map(|(_, m)| 1 + m.base_color_texture.is_some() as u64)
-            .sum()
+        let mut keys = std::collections::HashSet::new();
+        for (mi, m) in scene.materials.iter().enumerate() {
+            if p.classify(m) != Class::Glossy || !scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == mi) {
+                continue;
+            }
+            let (mb, beta) = material_brdf(p, m);
+            keys.insert(brdf_key(&mb, beta));
+            if m.base_color_texture.is_some() {
+                keys.insert(brdf_key(&MaterialBrdf { base: Vec3::ZERO, ..mb }, beta));
+            }
+        }
+        keys.len() as u64
     }
 
     /// Units of work [`WaveCache::build`] ticks (for the progress bar's length).
@@ -597,6 +605,20 @@ impl Fnv {
             self.bytes(&x.to_bits().to_le_bytes());
         }
     }
+}
+
+/// A material's BRDF as the tables tabulate it, and its Haar threshold β.
+fn material_brdf(p: &WavecacheParams, m: &glimpse_scene::Material) -> (MaterialBrdf, f64) {
+    let mb = MaterialBrdf { model: p.brdf, material: m.model, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
+    (mb, bake::brdf_beta(m.roughness, p.brdf_beta_scale))
+}
+
+/// What makes two BRDF tables equal: every parameter [`brdf::tabulate`] reads of the material
+/// (`Debug` prints each float exactly), and β. Real scenes repeat one material under many
+/// names (an OBJ's objects, a glTF's duplicated materials, a scene file's placements): 400 such
+/// placements of one head tabulated 400 tables, 9 GiB.
+fn brdf_key(mb: &MaterialBrdf, beta: f64) -> String {
+    format!("{mb:?} {beta:?}")
 }
 
 /// Each instance's class and world-space area.

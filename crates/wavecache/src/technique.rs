@@ -172,6 +172,10 @@ impl Wavecache {
         bar.finish_and_clear();
         let c = c?;
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
+        // What the memory holds: the distinct BRDF tables and their bytes beside the lighting's.
+        stats.metrics.push(("brdf_tables".to_owned(), WaveCache::brdf_table_count(&ctx.frame, &p) as f64));
+        stats.metrics.push(("brdf_mib".to_owned(), c.brdf_bytes() as f64 / (1u64 << 20) as f64));
+        stats.metrics.push(("lighting_mib".to_owned(), c.lighting_bytes() as f64 / (1u64 << 20) as f64));
         stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
         stats.rays = c.build_info.get(2).copied().unwrap_or(0.0) as u64;
         if let Some(&n) = c.build_info.get(5) {

@@ -188,3 +188,51 @@ fn a_light_plan_is_raised_to_the_floor() {
     assert!(raised.paths as f64 <= DEFAULT_PATH_FLOOR as f64 * 1.1, "{} paths", raised.paths);
     assert_eq!(plan("glossy", &[&light[..], &["profile=paper"]].concat()).scale, 1.0);
 }
+
+/// Materials with equal BRDF parameters share one tabulated BRDF (real scenes repeat a material
+/// under many names: `scenes/extra/forest`'s 400 placements tabulated 400 tables, 9 GiB); a
+/// material that differs in any parameter gets its own, and the images are the same as with
+/// one table per material (the shared headers point at the same trees).
+#[test]
+fn equal_materials_share_their_brdf_table() {
+    use glimpse_render::FrameContext;
+    use glimpse_wavecache::cache::WaveCache;
+    let sphere = |x: f32, roughness: f32| {
+        format!(
+            "[[sphere]]\nradius = 0.3\nsegments = 16\ntranslate = [{x}, 0.3, 0.0]\nmaterial = {{ base_color = [0.8, 0.4, 0.2], roughness = {roughness} }}\n"
+        )
+    };
+    let toml = format!(
+        "[camera]\nposition = [0.0, 1.0, 3.0]\ntarget = [0.0, 0.3, 0.0]\n[environment]\nconstant = [1.0, 1.0, 1.0]\n\
+         [[quad]]\nsize = [4.0, 4.0]\nmaterial = {{ base_color = [0.5, 0.5, 0.5], roughness = 1.0 }}\n{}{}{}",
+        sphere(-0.8, 0.3),
+        sphere(0.0, 0.3),
+        sphere(0.8, 0.4)
+    );
+    let dir = tempfile::tempdir().unwrap();
+    let path = dir.path().join("scene.toml");
+    std::fs::write(&path, toml).unwrap();
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    assert_eq!(scene.materials.len(), 4, "one material per placement");
+    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+    let p = WavecacheParams {
+        brdf_grid_u1: 8,
+        brdf_grid_u2: 16,
+        brdf_res: 8,
+        brdf_strata: 1,
+        diffuse_points: 64,
+        glossy_points: 32,
+        irradiance_samples: 16,
+        texel_samples: 1,
+        ..WavecacheParams::default()
+    };
+    assert_eq!(WaveCache::brdf_table_count(&ctx.frame, &p), 2, "roughness 0.3 twice, 0.4 once");
+    let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
+    let glossy: Vec<usize> = (0..4).filter(|&m| scene.materials[m].roughness < 0.5 && scene.materials[m].roughness > 0.0).collect();
+    let t = |m: usize| cache.brdf_tables[m];
+    println!("glossy materials {glossy:?}: tables {:?}", glossy.iter().map(|&m| t(m)).collect::<Vec<_>>());
+    assert_eq!(glossy.len(), 3);
+    assert_eq!(t(glossy[0]), t(glossy[1]), "equal materials share one table");
+    assert_ne!(t(glossy[0]).first_tree, t(glossy[2]).first_tree, "a different roughness has its own");
+    assert_eq!(cache.brdf_trees.len() as u64, 2 * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64, "two tables' trees, not three");
+}
