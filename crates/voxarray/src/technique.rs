@@ -212,8 +212,9 @@ pub fn exactly_occluded(exact: &dyn Visibility, light: &WorldLight, s: &direct::
 /// error_sources -- SCENE 96 64 normal_offset=0.75 bias=0.5 bias_light=0.5`, |ε_s| refined →
 /// with 1 / 2 / 3 near cells): `scenes/extra/forest` (400 heads 0.4–1.1 m tall under 0.46 m
 /// cells) 9.69 % → 4.79 / **1.92** / 0.58 %, `sponza-interior` 1.98 % → 0.85 / **0.58** / 0.42 %,
-/// `million-triangles` 2.18 % → 1.17 / **0.96** / 0.91 %. A short ray leaves the tracer's
-/// top levels early, so it costs a fraction of a full one (docs/techniques/voxarray.md).
+/// `million-triangles` 2.18 % → 1.17 / **0.96** / 0.91 %. A short ray still starts at the
+/// tracer's top level and costs about 60 % of a full one, so with few lights the refined
+/// shading runs at 0.6–1.1× `lights-exact`'s speed (docs/techniques/voxarray.md).
 pub const REFINE_NEAR_CELLS: f32 = 2.0;
 
 /// `refine`'s exact checks on a frame's shadow decisions: an "occluded" answer stands only if
