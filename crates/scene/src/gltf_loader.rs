@@ -789,33 +789,22 @@ fn check_positions(json: &gltf::json::Value) -> Result<(), String> {
 /// The mean of each of an image's first three channels, raw in [0, 1] (one or two channels:
 /// grey); `None` where the pixel data does not match its size.
 fn channel_means(data: &gltf::image::Data) -> Option<Vec3> {
-    let (channels, bytes) = format_layout(data.format);
-    let (w, h) = (data.width as usize, data.height as usize);
-    let count = w.checked_mul(h)?;
-    if count == 0 || data.pixels.len() < count.checked_mul(channels * bytes)? {
-        return None;
-    }
-    let value = |i: usize| -> f64 {
-        let b = &data.pixels[i * bytes..(i + 1) * bytes];
-        match bytes {
-            1 => b[0] as f64 / 255.0,
-            2 => u16::from_ne_bytes([b[0], b[1]]) as f64 / 65535.0,
-            _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]) as f64,
-        }
-    };
+    let (channels, bytes) = checked_layout(data)?;
+    let count = data.width as usize * data.height as usize;
     let mut sum = [0.0f64; 3];
     for p in 0..count {
         for (c, s) in sum.iter_mut().enumerate() {
-            *s += value(p * channels + if channels < 3 { 0 } else { c });
+            *s += raw_channel(data, bytes, p * channels + if channels < 3 { 0 } else { c }) as f64;
         }
     }
     Some(Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32) / count as f32)
 }
 
-/// (channels, bytes per channel) of a decoded glTF image format.
-fn format_layout(format: gltf::image::Format) -> (usize, usize) {
+/// (channels, bytes per channel) of a decoded glTF image, `None` where it has no pixels or its
+/// data is shorter than its size says.
+fn checked_layout(data: &gltf::image::Data) -> Option<(usize, usize)> {
     use gltf::image::Format as F;
-    match format {
+    let (channels, bytes) = match data.format {
         F::R8 => (1, 1),
         F::R8G8 => (2, 1),
         F::R8G8B8 => (3, 1),
@@ -826,23 +815,28 @@ fn format_layout(format: gltf::image::Format) -> (usize, usize) {
         F::R16G16B16A16 => (4, 2),
         F::R32G32B32FLOAT => (3, 4),
         F::R32G32B32A32FLOAT => (4, 4),
+    };
+    let (w, h) = (data.width as usize, data.height as usize);
+    let ok = w > 0 && h > 0 && data.pixels.len() >= w.checked_mul(h)?.checked_mul(channels * bytes)?;
+    ok.then_some((channels, bytes))
+}
+
+/// Channel value `i` of a decoded image as stored: 8- and 16-bit ones scaled to [0, 1], floats
+/// as they are.
+fn raw_channel(data: &gltf::image::Data, bytes: usize, i: usize) -> f32 {
+    let b = &data.pixels[i * bytes..(i + 1) * bytes];
+    match bytes {
+        1 => b[0] as f32 / 255.0,
+        2 => u16::from_ne_bytes([b[0], b[1]]) as f32 / 65535.0,
+        _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
     }
 }
 
 fn linear_image(data: &gltf::image::Data) -> Option<Image> {
-    let (channels, bytes) = format_layout(data.format);
-    let (w, h) = (data.width as usize, data.height as usize);
-    if w == 0 || h == 0 || data.pixels.len() < w.checked_mul(h)?.checked_mul(channels * bytes)? {
-        return None;
-    }
-    let channel = |i: usize| -> f32 {
-        let b = &data.pixels[i * bytes..(i + 1) * bytes];
-        match bytes {
-            1 => srgb_decode(b[0] as f32 / 255.0),
-            2 => srgb_decode(u16::from_ne_bytes([b[0], b[1]]) as f32 / 65535.0),
-            _ => f32::from_ne_bytes([b[0], b[1], b[2], b[3]]),
-        }
-    };
+    let (channels, bytes) = checked_layout(data)?;
+    // 8- and 16-bit colour is sRGB-encoded, floats are linear.
+    let channel = |i: usize| if bytes < 4 { srgb_decode(raw_channel(data, bytes, i)) } else { raw_channel(data, bytes, i) };
+    let w = data.width as usize;
     Some(Image::from_fn(data.width, data.height, |x, y| {
         let p = (y as usize * w + x as usize) * channels;
         // One or two channels are grey (+ alpha).
