@@ -81,6 +81,12 @@ pub fn encode(format: CacheFormat, payload: &[u8]) -> Vec<u8> {
 
 /// Validates a whole file's bytes and returns its payload.
 pub fn decode(format: CacheFormat, path: &Path, data: &[u8]) -> Result<Vec<u8>, CacheFileError> {
+    check(format, path, data)?;
+    Ok(data[HEADER_BYTES..].to_vec())
+}
+
+/// Validates a whole file's bytes: magic, version, length and checksum.
+fn check(format: CacheFormat, path: &Path, data: &[u8]) -> Result<(), CacheFileError> {
     let p = || path.display().to_string();
     let u32_at = |at: usize| u32::from_le_bytes(data[at..at + 4].try_into().unwrap_or([0; 4]));
     let u64_at = |at: usize| u64::from_le_bytes(data[at..at + 8].try_into().unwrap_or([0; 8]));
@@ -96,11 +102,10 @@ pub fn decode(format: CacheFormat, path: &Path, data: &[u8]) -> Result<Vec<u8>, 
     if len != found || u32_at(12) != 0 {
         return Err(CacheFileError::Length { path: p(), expected: len, found });
     }
-    let payload = &data[HEADER_BYTES..];
-    if checksum(payload) != sum {
+    if checksum(&data[HEADER_BYTES..]) != sum {
         return Err(CacheFileError::Checksum { path: p() });
     }
-    Ok(payload.to_vec())
+    Ok(())
 }
 
 /// Writes `payload` to `path` (creating its folder) atomically, and removes stale temporary
@@ -125,8 +130,11 @@ pub fn write_parts(path: &Path, format: CacheFormat, parts: &[&[u8]]) -> Result<
 
 /// Reads and validates the file at `path` (a regular file of at most `limit` bytes).
 pub fn read(path: &Path, format: CacheFormat, limit: u64) -> Result<Vec<u8>, CacheFileError> {
-    let data = bounded_read::read_bounded(path, "cache file", limit)?;
-    decode(format, path, &data)
+    let mut data = bounded_read::read_bounded(path, "cache file", limit)?;
+    check(format, path, &data)?;
+    // The payload in place, not a copy beside the file's bytes (caches reach GBs).
+    data.drain(..HEADER_BYTES);
+    Ok(data)
 }
 
 /// The policy of every cache reader: reads `path` and turns its payload into a value with

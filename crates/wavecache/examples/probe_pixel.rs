@@ -70,7 +70,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         println!(
             "point at {d:.2} r_max, n·n {:.3}, weight {weight:.3}: Eq. 20 {:?}",
             ns.dot(np),
-            rt.glossy(s.material, wo_local, p.payload)
+            rt.glossy(s.material, s.base, wo_local, p.payload)
         );
     }
     println!("far {}; cached (after the texel) {:?}; punctual {:?}", reading.far, rt.cached(&s, wo), rt.punctual(&s, wo).0);
@@ -93,7 +93,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     let wo_local = map_frame(ns).to_local(reflect(r, ns));
     for (name, tree) in &own {
-        println!("{name}: Eq. 20 {:?}", rt.glossy(s.material, wo_local, *tree));
+        println!("{name}: Eq. 20 {:?}", rt.glossy(s.material, s.base, wo_local, *tree));
     }
     Ok(())
 }

@@ -43,12 +43,17 @@ pub struct WaveCache {
     pub key: u64,
     /// Per material (res = 0: not tabulated).
     pub brdf_tables: Vec<BrdfTable>,
-    /// Per material: its BRDF with a black base colour, for glossy materials whose base colour
-    /// is textured (res = 0: none). The BRDF is affine in the base colour per channel (the
-    /// diffuse lobe is linear in it, Schlick's F0 and a conductor's F are), so a texel's BRDF is
-    /// black + texel / factor × (factor's − black's) exactly, and the product with the radiance
-    /// is blended the same way ([`crate::technique::Runtime::cached`]).
+    /// Per material: its BRDF with a black base colour (res = 0: none), for glossy materials
+    /// whose table is not of their own colour ([`WaveCache::brdf_base`]). The BRDF is affine in
+    /// the base colour per channel (the diffuse lobe is linear in it, Schlick's F0 and a
+    /// conductor's F are), so the BRDF of base c is black + c / b × (b's − black's) exactly, b
+    /// the table's base, and the product with the radiance is blended the same way
+    /// ([`crate::technique::Runtime::glossy`]).
     pub brdf_black: Vec<BrdfTable>,
+    /// Per material: the base colour its `brdf_tables` entry was tabulated with: its own factor
+    /// (one table, one product per point), or white where textured or where it shares white
+    /// and black tables with materials of other colours ([`BrdfPlan`]).
+    pub brdf_base: Vec<[f32; 3]>,
     pub brdf_trees: Vec<TreeRef>,
     pub brdf_nodes: Vec<HaarNode>,
     /// Per material, [`ALBEDO_BINS`] × (A_d, A_s).
@@ -86,7 +91,12 @@ impl WaveCache {
 
     /// Bytes of the BRDF part (tables and trees) — Table 3's "pre-storage BRDFs".
     pub fn brdf_bytes(&self) -> usize {
-        bytes(&self.brdf_tables) + bytes(&self.brdf_black) + bytes(&self.brdf_trees) + bytes(&self.brdf_nodes) + bytes(&self.albedo)
+        bytes(&self.brdf_tables)
+            + bytes(&self.brdf_black)
+            + bytes(&self.brdf_base)
+            + bytes(&self.brdf_trees)
+            + bytes(&self.brdf_nodes)
+            + bytes(&self.albedo)
     }
 
     /// Bytes of the lighting part — Table 3's "pre-storage lighting".
@@ -127,19 +137,15 @@ impl WaveCache {
         // BRDFs (only materials used by a glossy instance).
         let sw = Stopwatch::start();
         let mut tabulated: std::collections::HashMap<String, BrdfTable> = std::collections::HashMap::new();
+        let plan = BrdfPlan::new(frame, p);
         for (mi, m) in scene.materials.iter().enumerate() {
-            let used = scene
-                .instances
-                .iter()
-                .enumerate()
-                .any(|(ii, i)| scene.meshes[i.mesh as usize].material as usize == mi && inst_class[ii] == Class::Glossy);
-            let (mb, beta) = material_brdf(p, m);
-            // Materials with equal BRDF parameters share one table (the headers point at the
-            // same trees).
-            let mut tabulate = |mb: &MaterialBrdf| {
-                *tabulated.entry(brdf_key(mb, beta)).or_insert_with(|| {
+            let (mb, beta) = material_brdf(p, m, plan.roughness[mi]);
+            // Equal BRDFs share one table (the headers point at the same trees).
+            let mut tabulate = |base: Vec3| {
+                let mb = MaterialBrdf { base, ..mb };
+                *tabulated.entry(brdf_key(&mb, beta)).or_insert_with(|| {
                     brdf::tabulate(
-                        mb,
+                        &mb,
                         p.brdf_grid_u1,
                         p.brdf_grid_u2,
                         p.brdf_res,
@@ -151,14 +157,14 @@ impl WaveCache {
                     )
                 })
             };
-            let table = if used { tabulate(&mb) } else { BrdfTable::default() };
-            let black = if used && m.base_color_texture.is_some() {
-                tabulate(&MaterialBrdf { base: Vec3::ZERO, ..mb })
-            } else {
-                BrdfTable::default()
+            let (table, black, base) = match plan.tables[mi] {
+                None => (BrdfTable::default(), BrdfTable::default(), m.base_color),
+                Some(TablePlan::Own) => (tabulate(m.base_color), BrdfTable::default(), m.base_color),
+                Some(TablePlan::WhiteAndBlack) => (tabulate(Vec3::ONE), tabulate(Vec3::ZERO), Vec3::ONE),
             };
             c.brdf_tables.push(table);
             c.brdf_black.push(black);
+            c.brdf_base.push(base.to_array());
             c.check_budget()?;
             // Eq. 19's albedos: the glTF material's lobes, Lambert's (A_d = 1, A_s = 0) for a
             // `diffuse` one, as `pt` shades it.
@@ -292,23 +298,9 @@ impl WaveCache {
         )
     }
 
-    /// BRDF tables the build tabulates: one per distinct BRDF among the materials used by a
-    /// glossy instance, and one with a black base per distinct textured one
-    /// ([`WaveCache::brdf_black`]); materials with equal parameters share them.
+    /// BRDF tables the build tabulates ([`BrdfPlan::table_count`]).
     pub fn brdf_table_count(frame: &SceneFrame, p: &WavecacheParams) -> u64 {
-        let scene = frame.scene;
-        let mut keys = std::collections::HashSet::new();
-        for (mi, m) in scene.materials.iter().enumerate() {
-            if p.classify(m) != Class::Glossy || !scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == mi) {
-                continue;
-            }
-            let (mb, beta) = material_brdf(p, m);
-            keys.insert(brdf_key(&mb, beta));
-            if m.base_color_texture.is_some() {
-                keys.insert(brdf_key(&MaterialBrdf { base: Vec3::ZERO, ..mb }, beta));
-            }
-        }
-        keys.len() as u64
+        BrdfPlan::new(frame, p).table_count(frame, p)
     }
 
     /// Units of work [`WaveCache::build`] ticks (for the progress bar's length).
@@ -324,31 +316,44 @@ impl WaveCache {
     // payload is the key and the arrays, each as a u64 byte length and its plain bytes.
 
     /// Bump when the payload's layout or any array element's layout changes.
-    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 4 };
+    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 5 };
 
-    /// The payload of [`WaveCache::FORMAT`].
+    /// The payload of [`WaveCache::FORMAT`] as one buffer (tests; [`WaveCache::save`] writes
+    /// the parts where they lie).
     pub fn to_payload(&self) -> Vec<u8> {
-        let mut out = Vec::with_capacity(self.memory_bytes() + 256);
-        out.extend_from_slice(&self.key.to_le_bytes());
-        fn put<T: Pod>(out: &mut Vec<u8>, v: &[T]) {
-            out.extend_from_slice(&(std::mem::size_of_val(v) as u64).to_le_bytes());
-            out.extend_from_slice(bytemuck::cast_slice(v));
+        self.with_payload_parts(|parts| parts.concat())
+    }
+
+    /// Calls `f` with the payload as consecutive parts: the key, then each array's u64 byte
+    /// length and its bytes. Never one buffer: a copy of a 2.3 GB cache doubled the process's
+    /// peak memory while it was saved.
+    fn with_payload_parts<R>(&self, f: impl FnOnce(&[&[u8]]) -> R) -> R {
+        use bytemuck::cast_slice;
+        let arrays: [&[u8]; 15] = [
+            cast_slice(&self.brdf_tables),
+            cast_slice(&self.brdf_black),
+            cast_slice(&self.brdf_base),
+            cast_slice(&self.brdf_trees),
+            cast_slice(&self.brdf_nodes),
+            cast_slice(&self.albedo),
+            cast_slice(&self.meshes),
+            cast_slice(&self.octree),
+            cast_slice(&self.points),
+            cast_slice(&self.irradiance),
+            cast_slice(&self.radiance_trees),
+            cast_slice(&self.radiance_nodes),
+            cast_slice(&self.env_visibility_first),
+            &self.env_visibility,
+            cast_slice(&self.build_info),
+        ];
+        let key = self.key.to_le_bytes();
+        let lengths = arrays.map(|a| (a.len() as u64).to_le_bytes());
+        let mut parts: Vec<&[u8]> = vec![&key];
+        for (length, array) in lengths.iter().zip(arrays) {
+            parts.push(length);
+            parts.push(array);
         }
-        put(&mut out, &self.brdf_tables);
-        put(&mut out, &self.brdf_black);
-        put(&mut out, &self.brdf_trees);
-        put(&mut out, &self.brdf_nodes);
-        put(&mut out, &self.albedo);
-        put(&mut out, &self.meshes);
-        put(&mut out, &self.octree);
-        put(&mut out, &self.points);
-        put(&mut out, &self.irradiance);
-        put(&mut out, &self.radiance_trees);
-        put(&mut out, &self.radiance_nodes);
-        put(&mut out, &self.env_visibility_first);
-        put(&mut out, &self.env_visibility);
-        put(&mut out, &self.build_info);
-        out
+        f(&parts)
     }
 
     /// Parses and fully validates ([`WaveCache::validate`]) a payload; the key must match.
@@ -375,6 +380,7 @@ impl WaveCache {
             key,
             brdf_tables: get(data, &mut at, "BRDF tables")?,
             brdf_black: get(data, &mut at, "black-base BRDF tables")?,
+            brdf_base: get(data, &mut at, "BRDF table base colours")?,
             brdf_trees: get(data, &mut at, "BRDF trees")?,
             brdf_nodes: get(data, &mut at, "BRDF nodes")?,
             albedo: get(data, &mut at, "albedo")?,
@@ -397,7 +403,7 @@ impl WaveCache {
 
     /// Writes the cache to `path` (creating its folder) atomically.
     pub fn save(&self, path: &Path) -> Result<(), CacheError> {
-        cache_file::write(path, Self::FORMAT, &self.to_payload())
+        self.with_payload_parts(|parts| cache_file::write_parts(path, Self::FORMAT, parts))
             .map_err(|e| CacheError::Io { path: path.display().to_string(), source: e.into() })
     }
 
@@ -447,8 +453,15 @@ impl WaveCache {
                 return Err(format!("radiance tree {i}: visibility map of {texels} texels at {first} out of range"));
             }
         }
-        if self.brdf_black.len() != materials {
-            return Err(format!("{} black-base BRDF tables for {materials} materials", self.brdf_black.len()));
+        if self.brdf_black.len() != materials || self.brdf_base.len() != materials {
+            return Err(format!(
+                "{} black-base BRDF tables and {} base colours for {materials} materials",
+                self.brdf_black.len(),
+                self.brdf_base.len()
+            ));
+        }
+        if self.brdf_base.iter().flatten().any(|v| !v.is_finite()) {
+            return Err("non-finite BRDF table base colour".into());
         }
         for (mi, t) in self.brdf_tables.iter().chain(&self.brdf_black).enumerate() {
             if t.res == 0 {
@@ -607,10 +620,118 @@ impl Fnv {
     }
 }
 
-/// A material's BRDF as the tables tabulate it, and its Haar threshold β.
-fn material_brdf(p: &WavecacheParams, m: &glimpse_scene::Material) -> (MaterialBrdf, f64) {
-    let mb = MaterialBrdf { model: p.brdf, material: m.model, base: m.base_color, metallic: m.metallic, roughness: m.roughness };
-    (mb, bake::brdf_beta(m.roughness, p.brdf_beta_scale))
+/// A material's BRDF as the tables tabulate it, at `roughness` ([`BrdfPlan::roughness`]), and
+/// its Haar threshold β.
+fn material_brdf(p: &WavecacheParams, m: &glimpse_scene::Material, roughness: f32) -> (MaterialBrdf, f64) {
+    let mb = MaterialBrdf { model: p.brdf, material: m.model, base: m.base_color, metallic: m.metallic, roughness };
+    (mb, bake::brdf_beta(roughness, p.brdf_beta_scale))
+}
+
+/// How a glossy material's BRDF is tabulated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TablePlan {
+    /// One table with the material's own base colour: one product per cache point.
+    Own,
+    /// A white-base and a black-base table, which any base colour blends exactly (the BRDF is
+    /// affine in it): for a textured material, and, where the tables would pass
+    /// `brdf_max_tables`, for every material whose BRDF others share in another colour. Two
+    /// products per point instead of one (`million-triangles`' shading at 96 × 64 took 13 →
+    /// 20 ms when its three colours of one roughness shared them), and two tables for all the
+    /// colours instead of one each (`scenes/extra/forest`'s 400 heads in 6 colours: 180 tables,
+    /// 5 GiB, one per colour and roughness; 100 shared, 2.4 GiB).
+    WhiteAndBlack,
+}
+
+/// Which BRDF tables the build tabulates, per material.
+#[derive(Clone, Debug, PartialEq)]
+pub struct BrdfPlan {
+    /// `None`: no glossy instance uses the material.
+    pub tables: Vec<Option<TablePlan>>,
+    /// The roughness its tables are tabulated at: its own, or snapped (`brdf_max_tables`).
+    pub roughness: Vec<f32>,
+}
+
+impl BrdfPlan {
+    /// The fastest plan within `p.brdf_max_tables` tables (each about 24 MiB at the defaults;
+    /// a scene of many materials would pass the 4 GiB target), in three steps, each taken only
+    /// where the one before needs more tables: (1) every glossy material its own table, one
+    /// per distinct BRDF, a textured one white and black; (2) materials whose BRDF differs only
+    /// in colour share white and black tables; (3) their roughnesses snap to
+    /// `brdf_max_tables / 2` levels spread evenly over their range (ours; the paper tabulates
+    /// each material, `profile=paper`: no limit), and the summary line says by how much
+    /// ([`BrdfPlan::max_snap`]).
+    pub fn new(frame: &SceneFrame, p: &WavecacheParams) -> BrdfPlan {
+        let own: Vec<f32> = frame.scene.materials.iter().map(|m| m.roughness).collect();
+        let max = p.brdf_max_tables as u64;
+        let fits = |plan: &BrdfPlan| max == 0 || plan.table_count(frame, p) <= max;
+        let plan = Self::with_roughness(frame, p, own.clone(), false);
+        if fits(&plan) {
+            return plan;
+        }
+        let plan = Self::with_roughness(frame, p, own, true);
+        if fits(&plan) {
+            return plan;
+        }
+        let glossy = || plan.roughness.iter().zip(&plan.tables).filter(|(_, t)| t.is_some()).map(|(&r, _)| r);
+        let (lo, hi) = glossy().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), r| (lo.min(r), hi.max(r)));
+        let levels = (max / 2).max(1);
+        let snap = |r: f32| {
+            if levels == 1 {
+                0.5 * (lo + hi)
+            } else {
+                lo + ((r - lo) * (levels - 1) as f32 / (hi - lo)).round() * (hi - lo) / (levels - 1) as f32
+            }
+        };
+        let snapped = plan.roughness.iter().zip(&plan.tables).map(|(&r, t)| if t.is_some() && hi > lo { snap(r) } else { r }).collect();
+        Self::with_roughness(frame, p, snapped, true)
+    }
+
+    /// The plan at these roughnesses; `share_colours`: materials whose BRDF differs only in
+    /// colour share white and black tables.
+    fn with_roughness(frame: &SceneFrame, p: &WavecacheParams, roughness: Vec<f32>, share_colours: bool) -> BrdfPlan {
+        let scene = frame.scene;
+        let glossy_used: Vec<bool> = (0..scene.materials.len())
+            .map(|mi| {
+                scene.instances.iter().any(|i| scene.meshes[i.mesh as usize].material as usize == mi)
+                    && p.classify(&scene.materials[mi]) == Class::Glossy
+            })
+            .collect();
+        let colourless = |mi: usize| {
+            let (mb, beta) = material_brdf(p, &scene.materials[mi], roughness[mi]);
+            brdf_key(&MaterialBrdf { base: Vec3::ZERO, ..mb }, beta)
+        };
+        // Per colourless BRDF: its colours.
+        let mut colours: std::collections::HashMap<String, std::collections::HashSet<String>> = Default::default();
+        for (mi, m) in scene.materials.iter().enumerate().filter(|&(mi, _)| glossy_used[mi]) {
+            colours.entry(colourless(mi)).or_default().insert(format!("{:?}", m.base_color));
+        }
+        let plan = |mi: usize| {
+            let textured = scene.materials[mi].base_color_texture.is_some();
+            if textured || (share_colours && colours[&colourless(mi)].len() > 1) { TablePlan::WhiteAndBlack } else { TablePlan::Own }
+        };
+        let tables = (0..scene.materials.len()).map(|mi| glossy_used[mi].then(|| plan(mi))).collect();
+        BrdfPlan { tables, roughness }
+    }
+
+    /// The distinct tables: one per distinct BRDF among the planned (base, roughness) pairs.
+    pub fn table_count(&self, frame: &SceneFrame, p: &WavecacheParams) -> u64 {
+        let mut keys = std::collections::HashSet::new();
+        for ((m, plan), &r) in frame.scene.materials.iter().zip(&self.tables).zip(&self.roughness) {
+            let (mb, beta) = material_brdf(p, m, r);
+            let bases = match plan {
+                None => vec![],
+                Some(TablePlan::Own) => vec![m.base_color],
+                Some(TablePlan::WhiteAndBlack) => vec![Vec3::ONE, Vec3::ZERO],
+            };
+            keys.extend(bases.into_iter().map(|base| brdf_key(&MaterialBrdf { base, ..mb }, beta)));
+        }
+        keys.len() as u64
+    }
+
+    /// The largest change of a glossy material's roughness by the snapping (0: none).
+    pub fn max_snap(&self, frame: &SceneFrame) -> f32 {
+        frame.scene.materials.iter().zip(&self.roughness).map(|(m, &r)| (m.roughness - r).abs()).fold(0.0, f32::max)
+    }
 }
 
 /// What makes two BRDF tables equal: every parameter [`brdf::tabulate`] reads of the material

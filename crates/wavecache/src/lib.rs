@@ -163,6 +163,11 @@ pub fn small_cached_sources(frame: &glimpse_scene::SceneFrame) -> bool {
     }
 }
 
+/// Default `brdf_max_tables` (ours): a table takes about 24 MiB at the default ω_o grid and
+/// resolution (`scenes/extra/forest`: 100 tables, 2.4 GiB), so 96 keep the tables near 2.3 GiB,
+/// under the 4 GiB target with the lighting cache (under 0.1 GiB on every suite scene).
+pub const DEFAULT_BRDF_MAX_TABLES: u32 = 96;
+
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).
 pub const DEFAULT_PATH_BUDGET: u64 = 80_000_000;
@@ -197,6 +202,9 @@ pub struct WavecacheParams {
     /// Multiplies the paper's BRDF β (0.1 for r ≤ 0.2, else 0.2) to give a β relative to the root
     /// scaling coefficient (the paper's absolute scale is unknown).
     pub brdf_beta_scale: f32,
+    /// At most this many BRDF tables (ours; 0: no limit, `profile=paper`): beyond it the glossy
+    /// roughnesses snap to fewer levels ([`cache::BrdfPlan::new`]).
+    pub brdf_max_tables: u32,
     /// Table 2's radiance-map resolution is divided by this (paper 1).
     pub map_scale: u32,
     /// Path-traced samples per radiance texel (paper 128).
@@ -392,6 +400,7 @@ impl Default for WavecacheParams {
             brdf_res: 32,
             brdf_strata: 2,
             brdf_beta_scale: 0.01,
+            brdf_max_tables: DEFAULT_BRDF_MAX_TABLES,
             map_scale: 4,
             texel_samples: 16,
             texel_light_samples: 4,
@@ -447,6 +456,7 @@ impl WavecacheParams {
             brdf_grid_u1: 172,
             brdf_grid_u2: 1080,
             brdf_res: 128,
+            brdf_max_tables: 0,
             map_scale: 1,
             texel_samples: 128,
             texel_light_samples: 0,
@@ -539,6 +549,7 @@ impl WavecacheParams {
             brdf_res: pow2("brdf_res", params.u32("brdf_res", base.brdf_res, 4, 512)?)?,
             brdf_strata: params.u32("brdf_strata", base.brdf_strata, 1, 64)?,
             brdf_beta_scale: params.f32("brdf_beta_scale", base.brdf_beta_scale, 0.0, 1e6)?,
+            brdf_max_tables: params.u32("brdf_max_tables", base.brdf_max_tables, 0, 1 << 16)?,
             map_scale: pow2("map_scale", params.u32("map_scale", base.map_scale, 1, 32)?)?,
             texel_samples: params.u32("texel_samples", base.texel_samples, 1, 1 << 20)?,
             texel_light_samples: params.u32("texel_light_samples", base.texel_light_samples, 0, 1 << 20)?,

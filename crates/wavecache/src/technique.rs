@@ -173,7 +173,17 @@ impl Wavecache {
         let c = c?;
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         // What the memory holds: the distinct BRDF tables and their bytes beside the lighting's.
-        stats.metrics.push(("brdf_tables".to_owned(), WaveCache::brdf_table_count(&ctx.frame, &p) as f64));
+        let plan = crate::cache::BrdfPlan::new(&ctx.frame, &p);
+        stats.metrics.push(("brdf_tables".to_owned(), plan.table_count(&ctx.frame, &p) as f64));
+        let snap = plan.max_snap(&ctx.frame);
+        if snap > 0.0 {
+            // A parameter the scene made us choose: said once, with how to undo it.
+            stats.metrics.push(("brdf_roughness_snap".to_owned(), snap as f64));
+            eprintln!(
+                "wavecache: glossy roughnesses snapped by up to {snap:.4} to fit brdf_max_tables={} (brdf_max_tables=0 lifts it)",
+                p.brdf_max_tables
+            );
+        }
         stats.metrics.push(("brdf_mib".to_owned(), c.brdf_bytes() as f64 / (1u64 << 20) as f64));
         stats.metrics.push(("lighting_mib".to_owned(), c.lighting_bytes() as f64 / (1u64 << 20) as f64));
         stats.stage("lighting cache", c.build_info.get(1).copied().unwrap_or(0.0));
@@ -269,16 +279,14 @@ pub fn lobe_finer_than_map(roughness: f32, map_res: u32, texels: f32) -> bool {
     2.0 * roughness * roughness < texels * std::f32::consts::PI / map_res as f32
 }
 
-/// Per-texel albedo on a shared glossy lobe: the BRDF trees are tabulated once per material with
-/// its base-colour factor (and, for a textured material, once more with a black base,
-/// [`WaveCache::brdf_black`]), and a textured pixel (base = texel × factor) reads them at
-/// base / factor per channel (the texel). With the black table the result is exact, the BRDF
-/// being affine in the base colour; without one (caches of untextured materials) the lobe is
-/// scaled by the ratio, which is 1. A zero factor channel stays as tabulated.
+/// The base colour a BRDF table is read at: base / b per channel, b the colour it was
+/// tabulated with ([`WaveCache::brdf_base`]: a material's own factor, or white). A textured
+/// pixel's base is texel × factor; with a white table the ratio is the base itself. A zero b
+/// channel stays as tabulated.
 ///
-/// Why the black table (issue #13): scaling the whole lobe by the texel also darkened a textured
-/// dielectric's white specular highlight on Spot's black patches, 0.3 where `pt` has 3–5
-/// (`textured-glossy`: 8 pixels black where lit).
+/// Why the black table beside it (issue #13): scaling the whole lobe by the texel also darkened
+/// a textured dielectric's white specular highlight on Spot's black patches, 0.3 where `pt` has
+/// 3–5 (`textured-glossy`: 8 pixels black where lit).
 fn texel_ratio(base: Vec3, factor: Vec3) -> Vec3 {
     let r = |b: f32, f: f32| if f > 1e-6 { b / f } else { 1.0 };
     Vec3::new(r(base.x, factor.x), r(base.y, factor.y), r(base.z, factor.z))
@@ -495,9 +503,25 @@ impl<'a> Runtime<'a> {
         reading
     }
 
-    /// Eq. 20: the blended BRDF trees of `material` at `wo_local` ⊗ radiance tree `tree`.
-    pub fn glossy(&self, material: u32, wo_local: Vec3, tree: u32) -> Vec3 {
-        self.cache.brdf_tables.get(material as usize).map_or(Vec3::ZERO, |t| self.product(t, wo_local, tree))
+    /// Eq. 20: the blended BRDF trees of `material` with base colour `base` (its texel) at
+    /// `wo_local` ⊗ radiance tree `tree`. A table of another base b (white, or the factor of a
+    /// textured material) is read at base / b per channel with its black table: black + ratio ×
+    /// (b's − black's), exact (the BRDF is affine in the base colour); a material's own table
+    /// (ratio 1) alone.
+    pub fn glossy(&self, material: u32, base: Vec3, wo_local: Vec3, tree: u32) -> Vec3 {
+        let m = material as usize;
+        let (Some(table), Some(&b)) = (self.cache.brdf_tables.get(m), self.cache.brdf_base.get(m)) else {
+            return Vec3::ZERO;
+        };
+        let ratio = texel_ratio(base, Vec3::from(b));
+        let lit = self.product(table, wo_local, tree);
+        match self.cache.brdf_black.get(m).filter(|t| t.res > 0 && (ratio - Vec3::ONE).abs().max_element() > 1e-4) {
+            Some(black) => {
+                let dark = self.product(black, wo_local, tree);
+                (dark + (lit - dark) * ratio).max(Vec3::ZERO)
+            }
+            None => lit * ratio,
+        }
     }
 
     /// Eq. 20 with the BRDF table `t`: its four trees around `wo_local`, bilinearly blended,
@@ -548,14 +572,6 @@ impl<'a> Runtime<'a> {
                 e * (s.base * ad + Vec3::splat(as_)) / PI
             }
             Class::Glossy => {
-                let m = s.material as usize;
-                let ratio = texel_ratio(s.base, self.frame.scene.materials[m].base_color);
-                let Some(table) = self.cache.brdf_tables.get(m) else {
-                    return Vec3::ZERO;
-                };
-                // A textured texel's BRDF: black + ratio × (factor's − black's), exact (the BRDF
-                // is affine in the base colour); untextured ones have ratio 1.
-                let black = self.cache.brdf_black.get(m).filter(|b| b.res > 0 && (ratio - Vec3::ONE).abs().max_element() > 1e-4);
                 // Per shaded point: ω_o in the pixel's frame, and its mirror direction about ns.
                 let (wo_pixel, r) = (map_frame(ns).to_local(wo), bsdf::reflect(wo, ns));
                 let radiance = |p: &CachePoint| {
@@ -565,14 +581,7 @@ impl<'a> Runtime<'a> {
                         WoFrame::Point => map_frame(np).to_local(wo),
                         WoFrame::Reflect => map_frame(np).to_local(bsdf::reflect(r, np)),
                     };
-                    let lit = self.product(table, wo_local, p.payload);
-                    match black {
-                        Some(b) => {
-                            let dark = self.product(b, wo_local, p.payload);
-                            (dark + (lit - dark) * ratio).max(Vec3::ZERO)
-                        }
-                        None => lit * ratio,
-                    }
+                    self.glossy(s.material, s.base, wo_local, p.payload)
                 };
                 reading.blended().map(|(p, w)| radiance(p) * w).sum::<Vec3>()
             }

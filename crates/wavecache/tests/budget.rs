@@ -189,33 +189,28 @@ fn a_light_plan_is_raised_to_the_floor() {
     assert_eq!(plan("glossy", &[&light[..], &["profile=paper"]].concat()).scale, 1.0);
 }
 
-/// Materials with equal BRDF parameters share one tabulated BRDF (real scenes repeat a material
-/// under many names: `scenes/extra/forest`'s 400 placements tabulated 400 tables, 9 GiB); a
-/// material that differs in any parameter gets its own, and the images are the same as with
-/// one table per material (the shared headers point at the same trees).
-#[test]
-fn equal_materials_share_their_brdf_table() {
-    use glimpse_render::FrameContext;
-    use glimpse_wavecache::cache::WaveCache;
-    let sphere = |x: f32, roughness: f32| {
-        format!(
-            "[[sphere]]\nradius = 0.3\nsegments = 16\ntranslate = [{x}, 0.3, 0.0]\nmaterial = {{ base_color = [0.8, 0.4, 0.2], roughness = {roughness} }}\n"
-        )
-    };
-    let toml = format!(
+/// A scene of spheres (x, base colour, roughness) on a grey floor under a white sky and a point
+/// light, one material each.
+fn spheres(spheres: &[(f32, [f32; 3], f32)]) -> glimpse_scene::Scene {
+    let mut toml = String::from(
         "[camera]\nposition = [0.0, 1.0, 3.0]\ntarget = [0.0, 0.3, 0.0]\n[environment]\nconstant = [1.0, 1.0, 1.0]\n\
-         [[quad]]\nsize = [4.0, 4.0]\nmaterial = {{ base_color = [0.5, 0.5, 0.5], roughness = 1.0 }}\n{}{}{}",
-        sphere(-0.8, 0.3),
-        sphere(0.0, 0.3),
-        sphere(0.8, 0.4)
+         [[light]]\nkind = \"point\"\nposition = [1.0, 2.0, 1.0]\nintensity = 3.0\n\
+         [[quad]]\nsize = [4.0, 4.0]\nmaterial = { base_color = [0.5, 0.5, 0.5], roughness = 1.0 }\n",
     );
+    for (x, c, r) in spheres {
+        toml += &format!(
+            "[[sphere]]\nradius = 0.3\nsegments = 16\ntranslate = [{x}, 0.3, 0.0]\nmaterial = {{ base_color = {c:?}, roughness = {r} }}\n"
+        );
+    }
     let dir = tempfile::tempdir().unwrap();
     let path = dir.path().join("scene.toml");
     std::fs::write(&path, toml).unwrap();
-    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
-    assert_eq!(scene.materials.len(), 4, "one material per placement");
-    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
-    let p = WavecacheParams {
+    glimpse_scene::load(path.to_str().unwrap()).unwrap()
+}
+
+/// Small BRDF tables and caches for the sharing tests.
+fn small_tables() -> WavecacheParams {
+    WavecacheParams {
         brdf_grid_u1: 8,
         brdf_grid_u2: 16,
         brdf_res: 8,
@@ -225,7 +220,22 @@ fn equal_materials_share_their_brdf_table() {
         irradiance_samples: 16,
         texel_samples: 1,
         ..WavecacheParams::default()
-    };
+    }
+}
+
+/// Materials with equal BRDF parameters share one tabulated BRDF (real scenes repeat a material
+/// under many names: `scenes/extra/forest`'s 400 placements tabulated 400 tables, 9 GiB); a
+/// material that differs in any parameter gets its own, and the images are the same as with
+/// one table per material (the shared headers point at the same trees).
+#[test]
+fn equal_materials_share_their_brdf_table() {
+    use glimpse_render::FrameContext;
+    use glimpse_wavecache::cache::WaveCache;
+    let orange = [0.8, 0.4, 0.2];
+    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, orange, 0.3), (0.8, orange, 0.4)]);
+    assert_eq!(scene.materials.len(), 4, "one material per placement");
+    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+    let p = small_tables();
     assert_eq!(WaveCache::brdf_table_count(&ctx.frame, &p), 2, "roughness 0.3 twice, 0.4 once");
     let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
     let glossy: Vec<usize> = (0..4).filter(|&m| scene.materials[m].roughness < 0.5 && scene.materials[m].roughness > 0.0).collect();
@@ -235,4 +245,98 @@ fn equal_materials_share_their_brdf_table() {
     assert_eq!(t(glossy[0]), t(glossy[1]), "equal materials share one table");
     assert_ne!(t(glossy[0]).first_tree, t(glossy[2]).first_tree, "a different roughness has its own");
     assert_eq!(cache.brdf_trees.len() as u64, 2 * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64, "two tables' trees, not three");
+}
+
+/// Where one table per colour would pass `brdf_max_tables`, materials whose BRDFs differ only
+/// in base colour share a white and a black table, which blend to any colour exactly (the BRDF
+/// is affine in it): `scenes/extra/forest`'s 400 heads in 6 colours and many roughnesses
+/// tabulated one table per colour and roughness (180, 5 GiB). A BRDF of one colour keeps its
+/// own single table, and under the limit every material does (one product per point, not two).
+/// The shared tables shade as the material's own table does: a cache whose shared material is
+/// given its own table renders the same image.
+#[test]
+fn other_colours_share_white_and_black_tables() {
+    use glimpse_render::FrameContext;
+    use glimpse_wavecache::brdf::{self, MaterialBrdf};
+    use glimpse_wavecache::cache::{BrdfPlan, TablePlan, WaveCache};
+    use glimpse_wavecache::technique::{Runtime, ShadePoint};
+    let (orange, blue, green) = ([0.8, 0.4, 0.2], [0.1, 0.3, 0.9], [0.2, 0.7, 0.3]);
+    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, blue, 0.3), (0.8, orange, 0.4), (1.6, green, 0.3)]);
+    let ctx = FrameContext::new(&scene, 0.0, 64, 48);
+    let by_colour = |c: [f32; 3], r: f32| scene.materials.iter().position(|m| m.base_color.to_array() == c && m.roughness == r).unwrap();
+    let (orange, blue, orange_rough) = (by_colour(orange, 0.3), by_colour(blue, 0.3), by_colour(orange, 0.4));
+    let roomy = WavecacheParams { brdf_beta_scale: 0.0, ..small_tables() };
+    let own_tables = BrdfPlan::new(&ctx.frame, &roomy);
+    assert!(own_tables.tables.iter().flatten().all(|&t| t == TablePlan::Own), "under the limit: one table per colour");
+    assert_eq!(own_tables.table_count(&ctx.frame, &roomy), 4);
+    let p = WavecacheParams { brdf_max_tables: 3, ..roomy };
+    let plans = BrdfPlan::new(&ctx.frame, &p).tables;
+    assert_eq!(plans[orange], Some(TablePlan::WhiteAndBlack));
+    assert_eq!(plans[blue], Some(TablePlan::WhiteAndBlack));
+    assert_eq!(plans[orange_rough], Some(TablePlan::Own), "the only colour of its roughness");
+    assert_eq!(WaveCache::brdf_table_count(&ctx.frame, &p), 3, "white and black at 0.3, orange at 0.4");
+    let shared = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
+    assert_eq!(shared.brdf_tables[orange], shared.brdf_tables[blue], "the two colours read one white table");
+    assert_eq!(shared.brdf_trees.len() as u64, 3 * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64);
+
+    // The same cache with the blue material's own table.
+    let mut own = shared.clone();
+    let m = &scene.materials[blue];
+    own.brdf_tables[blue] = brdf::tabulate(
+        &MaterialBrdf::pbr(m.base_color, m.metallic, m.roughness),
+        p.brdf_grid_u1,
+        p.brdf_grid_u2,
+        p.brdf_res,
+        p.brdf_strata,
+        0.0,
+        &mut own.brdf_nodes,
+        &mut own.brdf_trees,
+        &|_| {},
+    );
+    own.brdf_black[blue] = Default::default();
+    own.brdf_base[blue] = m.base_color.to_array();
+    let g = ctx.gbuffer();
+    let shade = |cache: &WaveCache| -> Vec<glimpse_core::Vec3> {
+        let rt = Runtime::new(cache, &p, &ctx.frame, &ctx.tracer);
+        (0..g.position.len())
+            .filter(|&i| g.material[i] == blue as u32 && g.instance[i] != glimpse_trace::gbuffer::NO_HIT)
+            .map(|i| rt.cached(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]))
+            .collect()
+    };
+    let (a, b) = (shade(&shared), shade(&own));
+    assert!(a.len() > 20, "the blue sphere covers {} pixels", a.len());
+    let worst = a.iter().zip(&b).map(|(x, y)| (*x - *y).abs().max_element() / y.max_element().max(1e-3)).fold(0.0f32, f32::max);
+    let mean = b.iter().map(|v| v.max_element()).sum::<f32>() / b.len() as f32;
+    println!("blue sphere: {} pixels, mean {mean:.4}, worst relative difference shared vs own table {worst:.2e}", a.len());
+    assert!(mean > 0.01, "the sphere is lit");
+    assert!(worst < 2e-2, "white and black tables blend to the material's own table (fp16 trees)");
+}
+
+/// A scene of more distinct roughnesses than `brdf_max_tables` allows snaps them to fewer
+/// levels over their range (each moves by at most half a step), tabulates no more tables than
+/// the limit, and says by how much; `brdf_max_tables=0` keeps every roughness.
+#[test]
+fn many_roughnesses_snap_to_the_table_limit() {
+    use glimpse_render::FrameContext;
+    use glimpse_wavecache::cache::{BrdfPlan, WaveCache};
+    let colours = [[0.8, 0.4, 0.2], [0.1, 0.3, 0.9]];
+    let placed: Vec<(f32, [f32; 3], f32)> = (0..12).map(|i| (i as f32 * 0.2 - 1.2, colours[i % 2], 0.2 + 0.02 * i as f32)).collect();
+    let scene = spheres(&placed);
+    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+    let unlimited = WavecacheParams { brdf_max_tables: 0, ..small_tables() };
+    let free = BrdfPlan::new(&ctx.frame, &unlimited);
+    assert_eq!(free.table_count(&ctx.frame, &unlimited), 12, "12 roughnesses of one colour each");
+    assert_eq!(free.max_snap(&ctx.frame), 0.0);
+    let p = WavecacheParams { brdf_max_tables: 8, ..small_tables() };
+    let plan = BrdfPlan::new(&ctx.frame, &p);
+    let (count, snap) = (plan.table_count(&ctx.frame, &p), plan.max_snap(&ctx.frame));
+    let levels: std::collections::BTreeSet<u32> =
+        plan.roughness.iter().zip(&plan.tables).filter(|(_, t)| t.is_some()).map(|(r, _)| r.to_bits()).collect();
+    println!("brdf_max_tables 8: {count} tables, {} roughness levels, snapped by up to {snap:.4}", levels.len());
+    assert!(count <= 8, "{count} tables over the limit");
+    assert_eq!(levels.len(), 4, "8 tables: 4 levels of white and black");
+    let step = 0.22 / 3.0;
+    assert!(snap > 0.0 && snap <= step / 2.0 + 1e-6, "snapped by {snap}, half a step is {}", step / 2.0);
+    let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
+    assert_eq!(cache.brdf_trees.len() as u64, count * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64, "the build tabulates the plan");
 }

@@ -63,15 +63,16 @@ fn sections(payload: &[u8]) -> Vec<(usize, usize)> {
 }
 
 const BRDF_BLACK: usize = 1;
-const BRDF_TREES: usize = 2;
-const BRDF_NODES: usize = 3;
-const MESHES: usize = 5;
-const OCTREE: usize = 6;
-const POINTS: usize = 7;
-const IRRADIANCE: usize = 8;
-const RADIANCE_TREES: usize = 9;
-const RADIANCE_NODES: usize = 10;
-const VISIBILITY_FIRST: usize = 11;
+const BRDF_BASE: usize = 2;
+const BRDF_TREES: usize = 3;
+const BRDF_NODES: usize = 4;
+const MESHES: usize = 6;
+const OCTREE: usize = 7;
+const POINTS: usize = 8;
+const IRRADIANCE: usize = 9;
+const RADIANCE_TREES: usize = 10;
+const RADIANCE_NODES: usize = 11;
+const VISIBILITY_FIRST: usize = 12;
 
 fn set_u32(b: &mut [u8], at: usize, v: u32) {
     b[at..at + 4].copy_from_slice(&v.to_le_bytes());
@@ -206,7 +207,9 @@ fn mutated_cache_files_are_rejected_or_harmless() {
         crafted.push((format!("radiance node {i}'s children start at the root"), b));
     }
     // Non-finite floats: octree bounds, point positions, fp16 infinity in Haar and irradiance.
-    for (sec, at, name) in [(OCTREE, 0, "octree min"), (POINTS, 0, "point position"), (POINTS, 36, "point energy")] {
+    for (sec, at, name) in
+        [(BRDF_BASE, 0, "BRDF table base colour"), (OCTREE, 0, "octree min"), (POINTS, 0, "point position"), (POINTS, 36, "point energy")]
+    {
         let mut b = payload.clone();
         b[field(sec, 0, 0, at)..][..4].copy_from_slice(&f32::NAN.to_le_bytes());
         crafted.push((format!("{name} = NaN"), b));
