@@ -18,7 +18,7 @@
 
 use crate::atomic_file::{self, STALE_TEMP_AGE, WriteError};
 use crate::bounded_read::{self, ReadError};
-use std::io::Write;
+use std::io::{Read, Write};
 use std::path::Path;
 
 pub const HEADER_BYTES: usize = 32;
@@ -87,6 +87,16 @@ pub fn decode(format: CacheFormat, path: &Path, data: &[u8]) -> Result<Vec<u8>, 
 
 /// Validates a whole file's bytes: magic, version, length and checksum.
 fn check(format: CacheFormat, path: &Path, data: &[u8]) -> Result<(), CacheFileError> {
+    let sum = check_header(format, path, data, data.len().saturating_sub(HEADER_BYTES) as u64)?;
+    if checksum(&data[HEADER_BYTES..]) != sum {
+        return Err(CacheFileError::Checksum { path: path.display().to_string() });
+    }
+    Ok(())
+}
+
+/// Validates the header at the start of `data` for a file whose payload is `found` bytes
+/// (magic, version, length) and returns the checksum it records.
+fn check_header(format: CacheFormat, path: &Path, data: &[u8], found: u64) -> Result<u64, CacheFileError> {
     let p = || path.display().to_string();
     let u32_at = |at: usize| u32::from_le_bytes(data[at..at + 4].try_into().unwrap_or([0; 4]));
     let u64_at = |at: usize| u64::from_le_bytes(data[at..at + 8].try_into().unwrap_or([0; 8]));
@@ -97,15 +107,11 @@ fn check(format: CacheFormat, path: &Path, data: &[u8]) -> Result<(), CacheFileE
     if u32_at(8) != format.version {
         return Err(CacheFileError::Version { path: p(), found: u32_at(8), expected: format.version });
     }
-    let (len, sum) = (u64_at(16), u64_at(24));
-    let found = (data.len() - HEADER_BYTES) as u64;
+    let len = u64_at(16);
     if len != found || u32_at(12) != 0 {
         return Err(CacheFileError::Length { path: p(), expected: len, found });
     }
-    if checksum(&data[HEADER_BYTES..]) != sum {
-        return Err(CacheFileError::Checksum { path: p() });
-    }
-    Ok(())
+    Ok(u64_at(24))
 }
 
 /// Writes `payload` to `path` (creating its folder) atomically, and removes stale temporary
@@ -144,6 +150,103 @@ pub fn read(path: &Path, format: CacheFormat, limit: u64) -> Result<Vec<u8>, Cac
 pub fn load_or_discard<T>(path: &Path, format: CacheFormat, limit: u64, parse: impl FnOnce(&[u8]) -> Result<T, String>) -> Option<T> {
     let result = read(path, format, limit)
         .and_then(|payload| parse(&payload).map_err(|message| CacheFileError::Invalid { path: path.display().to_string(), message }));
+    discard_bad(path, result)
+}
+
+/// A payload read as a stream and hashed as it passes, for caches too large to hold twice
+/// ([`read_streamed`]): its parser reads each array straight into its own storage.
+pub struct PayloadReader<'a> {
+    inner: &'a mut dyn Read,
+    hash: xxhash_rust::xxh3::Xxh3,
+    left: u64,
+}
+
+impl<'a> PayloadReader<'a> {
+    /// The payload of `len` bytes that `inner` yields.
+    pub fn new(inner: &'a mut dyn Read, len: u64) -> Self {
+        PayloadReader { inner, hash: xxhash_rust::xxh3::Xxh3::new(), left: len }
+    }
+
+    /// Bytes of the payload not read yet: a length read from the payload is checked against
+    /// it before anything is allocated.
+    pub fn remaining(&self) -> u64 {
+        self.left
+    }
+
+    /// Fills `buf` from the payload.
+    pub fn read_exact(&mut self, buf: &mut [u8]) -> Result<(), String> {
+        if buf.len() as u64 > self.left {
+            return Err(format!("truncated: {} bytes wanted, {} left", buf.len(), self.left));
+        }
+        self.inner.read_exact(buf).map_err(|e| format!("read failed: {e}"))?;
+        self.hash.update(buf);
+        self.left -= buf.len() as u64;
+        Ok(())
+    }
+
+    /// A u64 byte length followed by that many bytes, as an array of `T`.
+    pub fn array<T: bytemuck::Pod>(&mut self, what: &str) -> Result<Vec<T>, String> {
+        let mut len = [0u8; 8];
+        self.read_exact(&mut len).map_err(|e| format!("{what}: {e}"))?;
+        let len = u64::from_le_bytes(len);
+        let size = std::mem::size_of::<T>() as u64;
+        if len > self.left {
+            return Err(format!("{what}: {len} bytes, {} left", self.left));
+        }
+        if !len.is_multiple_of(size) {
+            return Err(format!("{what}: {len} bytes is not a whole number of elements"));
+        }
+        let mut v = vec![T::zeroed(); (len / size) as usize];
+        self.read_exact(bytemuck::cast_slice_mut(&mut v)).map_err(|e| format!("{what}: {e}"))?;
+        Ok(v)
+    }
+}
+
+/// [`read`] for large payloads, never held whole beside what `parse` builds of them: the header
+/// is checked (magic, version, the length against the file's size), `parse` reads the payload
+/// from a [`PayloadReader`], every byte must be read, and the checksum must match before its
+/// result is returned (it is never used on a corrupt file; the caller still validates it).
+pub fn read_streamed<T>(
+    path: &Path,
+    format: CacheFormat,
+    limit: u64,
+    parse: impl FnOnce(&mut PayloadReader) -> Result<T, String>,
+) -> Result<T, CacheFileError> {
+    let size = bounded_read::check_file(path, "cache file", limit)?;
+    let io = |source| CacheFileError::Read(ReadError::Io { path: path.to_owned(), source });
+    let mut file = std::io::BufReader::with_capacity(1 << 20, std::fs::File::open(path).map_err(io)?);
+    let mut header = vec![0u8; (HEADER_BYTES as u64).min(size) as usize];
+    file.read_exact(&mut header).map_err(io)?;
+    let invalid = |message: String| CacheFileError::Invalid { path: path.display().to_string(), message };
+    let len = size.saturating_sub(HEADER_BYTES as u64);
+    let sum = check_header(format, path, &header, len)?;
+    let mut reader = PayloadReader::new(&mut file, len);
+    let value = parse(&mut reader).map_err(invalid)?;
+    if reader.remaining() != 0 {
+        return Err(invalid(format!("{} bytes after the last array", reader.remaining())));
+    }
+    if reader.hash.digest() != sum {
+        return Err(CacheFileError::Checksum { path: path.display().to_string() });
+    }
+    Ok(value)
+}
+
+/// [`load_or_discard`] through [`read_streamed`]: `parse` reads the payload, `validate` checks
+/// what it built once the checksum has matched.
+pub fn load_streamed_or_discard<T>(
+    path: &Path,
+    format: CacheFormat,
+    limit: u64,
+    parse: impl FnOnce(&mut PayloadReader) -> Result<T, String>,
+    validate: impl FnOnce(&T) -> Result<(), String>,
+) -> Option<T> {
+    let result = read_streamed(path, format, limit, parse)
+        .and_then(|v| validate(&v).map(|()| v).map_err(|message| CacheFileError::Invalid { path: path.display().to_string(), message }));
+    discard_bad(path, result)
+}
+
+/// The policy's second half: a missing file is `None`; a bad one is reported and deleted.
+fn discard_bad<T>(path: &Path, result: Result<T, CacheFileError>) -> Option<T> {
     match result {
         Ok(v) => Some(v),
         Err(e) if e.is_missing() => None,
@@ -172,6 +275,45 @@ mod tests {
         let p = dir.path().join("ok.bin");
         write(&p, F, b"payload bytes").unwrap();
         assert_eq!(read(&p, F, 1 << 20).unwrap(), b"payload bytes");
+    }
+
+    /// The streamed reader reads what `read` reads, and refuses what it refuses: every bit
+    /// flip (checksum, or a header field), every truncation, trailing bytes, an array length
+    /// past the end (before allocating it), and a parser that leaves bytes unread.
+    #[test]
+    fn the_streamed_reader_agrees_with_read() {
+        let dir = tmp();
+        let p = dir.path().join("arrays.bin");
+        let values: Vec<u32> = (0..40).collect();
+        let body: &[u8] = bytemuck::cast_slice(&values);
+        write_parts(&p, F, &[&(body.len() as u64).to_le_bytes(), body]).unwrap();
+        let parse = |r: &mut PayloadReader| r.array::<u32>("values");
+        assert_eq!(read_streamed(&p, F, 1 << 20, parse).unwrap(), values);
+        let file = std::fs::read(&p).unwrap();
+        let bad = dir.path().join("bad.bin");
+        let refused = |data: &[u8]| {
+            std::fs::write(&bad, data).unwrap();
+            read_streamed(&bad, F, 1 << 20, parse).is_err()
+        };
+        for bit in 0..file.len() * 8 {
+            let mut m = file.clone();
+            m[bit / 8] ^= 1 << (bit % 8);
+            assert!(refused(&m), "flip of bit {bit} accepted");
+        }
+        for len in 0..file.len() {
+            assert!(refused(&file[..len]), "truncation to {len} accepted");
+        }
+        let mut longer = file.clone();
+        longer.push(0);
+        assert!(refused(&longer));
+        // A length past the end, with a valid header and checksum: refused, not allocated.
+        let huge = u64::MAX / 2;
+        write_parts(&bad, F, &[&huge.to_le_bytes(), body]).unwrap();
+        let e = read_streamed(&bad, F, 1 << 20, parse).unwrap_err();
+        assert!(e.to_string().contains("left"), "{e}");
+        // A parser that stops early.
+        let e = read_streamed(&p, F, 1 << 20, |r| r.read_exact(&mut [0u8; 8])).unwrap_err();
+        assert!(e.to_string().contains("after the last array"), "{e}");
     }
 
     #[test]

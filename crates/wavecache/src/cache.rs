@@ -15,7 +15,7 @@ use crate::{Class, WavecacheParams};
 use bytemuck::Pod;
 use glimpse_core::Vec3;
 use glimpse_core::bounded_read::{ReadError, limit};
-use glimpse_core::cache_file::{self, CacheFileError, CacheFormat};
+use glimpse_core::cache_file::{self, CacheFileError, CacheFormat, PayloadReader};
 use glimpse_core::memory_budget::BudgetError;
 use glimpse_render::Stopwatch;
 use glimpse_render::bsdf::BrdfModel;
@@ -358,47 +358,43 @@ impl WaveCache {
 
     /// Parses and fully validates ([`WaveCache::validate`]) a payload; the key must match.
     pub fn from_payload(data: &[u8], key: u64) -> Result<WaveCache, String> {
-        if data.len() < 8 || u64::from_le_bytes(data[..8].try_into().map_err(|_| "short payload")?) != key {
-            return Err("key mismatch".into());
-        }
-        let mut at = 8usize;
-        fn get<T: Pod>(data: &[u8], at: &mut usize, what: &str) -> Result<Vec<T>, String> {
-            let truncated = || format!("{what}: truncated");
-            let len: usize = u64::from_le_bytes(data.get(*at..*at + 8).ok_or_else(truncated)?.try_into().map_err(|_| truncated())?)
-                .try_into()
-                .map_err(|_| truncated())?;
-            *at += 8;
-            // The length is checked against the bytes that back it before anything is allocated.
-            let body = data.get(*at..at.checked_add(len).ok_or_else(truncated)?).ok_or_else(truncated)?;
-            *at += len;
-            if !len.is_multiple_of(std::mem::size_of::<T>()) {
-                return Err(format!("{what}: {len} bytes is not a whole number of elements"));
-            }
-            Ok(bytemuck::pod_collect_to_vec(body))
-        }
-        let c = WaveCache {
-            key,
-            brdf_tables: get(data, &mut at, "BRDF tables")?,
-            brdf_black: get(data, &mut at, "black-base BRDF tables")?,
-            brdf_base: get(data, &mut at, "BRDF table base colours")?,
-            brdf_trees: get(data, &mut at, "BRDF trees")?,
-            brdf_nodes: get(data, &mut at, "BRDF nodes")?,
-            albedo: get(data, &mut at, "albedo")?,
-            meshes: get(data, &mut at, "meshes")?,
-            octree: get(data, &mut at, "octree")?,
-            points: get(data, &mut at, "points")?,
-            irradiance: get(data, &mut at, "irradiance")?,
-            radiance_trees: get(data, &mut at, "radiance trees")?,
-            radiance_nodes: get(data, &mut at, "radiance nodes")?,
-            env_visibility_first: get(data, &mut at, "environment visibility offsets")?,
-            env_visibility: get(data, &mut at, "environment visibility")?,
-            build_info: get(data, &mut at, "build info")?,
-        };
-        if at != data.len() {
-            return Err(format!("{} bytes after the last array", data.len() - at));
+        let mut bytes = data;
+        let mut r = PayloadReader::new(&mut bytes, data.len() as u64);
+        let c = Self::read_arrays(&mut r, key)?;
+        if r.remaining() != 0 {
+            return Err(format!("{} bytes after the last array", r.remaining()));
         }
         c.validate()?;
         Ok(c)
+    }
+
+    /// The key and the arrays in [`WaveCache::with_payload_parts`]' order, each straight into
+    /// its own storage (a length is checked against the bytes left before anything is
+    /// allocated). Not validated.
+    fn read_arrays(r: &mut PayloadReader, key: u64) -> Result<WaveCache, String> {
+        let mut found = [0u8; 8];
+        r.read_exact(&mut found).map_err(|e| format!("key: {e}"))?;
+        if u64::from_le_bytes(found) != key {
+            return Err("key mismatch".into());
+        }
+        Ok(WaveCache {
+            key,
+            brdf_tables: r.array("BRDF tables")?,
+            brdf_black: r.array("black-base BRDF tables")?,
+            brdf_base: r.array("BRDF table base colours")?,
+            brdf_trees: r.array("BRDF trees")?,
+            brdf_nodes: r.array("BRDF nodes")?,
+            albedo: r.array("albedo")?,
+            meshes: r.array("meshes")?,
+            octree: r.array("octree")?,
+            points: r.array("points")?,
+            irradiance: r.array("irradiance")?,
+            radiance_trees: r.array("radiance trees")?,
+            radiance_nodes: r.array("radiance nodes")?,
+            env_visibility_first: r.array("environment visibility offsets")?,
+            env_visibility: r.array("environment visibility")?,
+            build_info: r.array("build info")?,
+        })
     }
 
     /// Writes the cache to `path` (creating its folder) atomically.
@@ -409,18 +405,20 @@ impl WaveCache {
 
     /// Reads a cache written by [`WaveCache::save`]: header, checksum, key and structure validated.
     pub fn load(path: &Path, key: u64) -> Result<WaveCache, CacheError> {
-        let payload = cache_file::read(path, Self::FORMAT, limit::CACHE).map_err(|e| match e {
+        let format = |message: String| CacheError::Format { path: path.display().to_string(), message };
+        let c = cache_file::read_streamed(path, Self::FORMAT, limit::CACHE, |r| Self::read_arrays(r, key)).map_err(|e| match e {
             CacheFileError::Read(ReadError::Io { source, .. }) => CacheError::Io { path: path.display().to_string(), source },
-            other => CacheError::Format { path: path.display().to_string(), message: other.to_string() },
+            other => format(other.to_string()),
         })?;
-        Self::from_payload(&payload, key).map_err(|message| CacheError::Format { path: path.display().to_string(), message })
+        c.validate().map_err(format)?;
+        Ok(c)
     }
 
-    /// The disk cache's policy ([`cache_file::load_or_discard`]): the cache at `path` if it is
+    /// The disk cache's policy ([`cache_file::load_streamed_or_discard`]): the cache at `path` if it is
     /// valid; a missing file is `None`, a bad one is reported in one warning line, deleted, and
     /// `None` (the caller rebuilds).
     pub fn load_or_discard(path: &Path, key: u64) -> Option<WaveCache> {
-        cache_file::load_or_discard(path, Self::FORMAT, limit::CACHE, |payload| Self::from_payload(payload, key))
+        cache_file::load_streamed_or_discard(path, Self::FORMAT, limit::CACHE, |r| Self::read_arrays(r, key), WaveCache::validate)
     }
 
     /// Full structural validation, so that no file — corrupt, or crafted with a valid checksum —
