@@ -655,7 +655,8 @@ impl BrdfPlan {
     /// where the one before needs more tables: (1) every glossy material its own table, one
     /// per distinct BRDF, a textured one white and black; (2) materials whose BRDF differs only
     /// in colour share white and black tables; (3) their roughnesses snap to
-    /// `brdf_max_tables / 2` levels spread evenly over their range (ours; the paper tabulates
+    /// `brdf_max_tables / (2 × the distinct models and metallics)` levels spread evenly over
+    /// their range (ours; the paper tabulates
     /// each material, `profile=paper`: no limit), and the summary line says by how much
     /// ([`BrdfPlan::max_snap`]).
     pub fn new(frame: &SceneFrame, p: &WavecacheParams) -> BrdfPlan {
@@ -672,7 +673,13 @@ impl BrdfPlan {
         }
         let glossy = || plan.roughness.iter().zip(&plan.tables).filter(|(_, t)| t.is_some()).map(|(&r, _)| r);
         let (lo, hi) = glossy().fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), r| (lo.min(r), hi.max(r)));
-        let levels = (max / 2).max(1);
+        // Each roughness level is tabulated once per model and metallic among the materials
+        // (white and black each): `gallery`'s metals and dielectrics are two.
+        let variants: std::collections::HashSet<String> = (frame.scene.materials.iter().zip(&plan.tables))
+            .filter(|(_, t)| t.is_some())
+            .map(|(m, _)| format!("{:?} {:?}", m.model, m.metallic))
+            .collect();
+        let levels = (max / (2 * variants.len() as u64).max(1)).max(1);
         let snap = |r: f32| {
             if levels == 1 {
                 0.5 * (lo + hi)
@@ -864,8 +871,9 @@ pub fn mean_rays_per_path(frame: &SceneFrame, tracer: &ExactTracer, p: &Wavecach
 
 /// Bumped when the precomputation's result changes for the same scene and parameters, so a
 /// cache written by older code is not read: 2 = the materials' own models (a conductor's
-/// Fresnel, a Lambertian `diffuse`) in the BRDF and albedo tables (session 23).
-const CACHE_REVISION: u32 = 2;
+/// Fresnel, a Lambertian `diffuse`) in the BRDF and albedo tables (session 23); 3 = the BRDF
+/// tables' plan ([`BrdfPlan`], session 27).
+const CACHE_REVISION: u32 = 3;
 
 /// The disk-cache key: the scene's geometry (world transforms, positions, normals, indices),
 /// materials, textures, lights and environment, every parameter that changes the result, the seed

@@ -174,13 +174,15 @@ impl Wavecache {
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         // What the memory holds: the distinct BRDF tables and their bytes beside the lighting's.
         let plan = crate::cache::BrdfPlan::new(&ctx.frame, &p);
-        stats.metrics.push(("brdf_tables".to_owned(), plan.table_count(&ctx.frame, &p) as f64));
+        let tables = plan.table_count(&ctx.frame, &p);
+        stats.metrics.push(("brdf_tables".to_owned(), tables as f64));
         let snap = plan.max_snap(&ctx.frame);
         if snap > 0.0 {
             // A parameter the scene made us choose: said once, with how to undo it.
             stats.metrics.push(("brdf_roughness_snap".to_owned(), snap as f64));
+            let fit = if tables <= p.brdf_max_tables as u64 { "to fit" } else { "and still over (its metallic values and models vary)" };
             eprintln!(
-                "wavecache: glossy roughnesses snapped by up to {snap:.4} to fit brdf_max_tables={} (brdf_max_tables=0 lifts it)",
+                "wavecache: glossy roughnesses snapped by up to {snap:.4}: {tables} BRDF tables, {fit} brdf_max_tables={} (brdf_max_tables=0 lifts it)",
                 p.brdf_max_tables
             );
         }

@@ -191,15 +191,17 @@ fn a_light_plan_is_raised_to_the_floor() {
 
 /// A scene of spheres (x, base colour, roughness) on a grey floor under a white sky and a point
 /// light, one material each.
-fn spheres(spheres: &[(f32, [f32; 3], f32)]) -> glimpse_scene::Scene {
+/// `metals`: the indices of spheres with metallic 1.
+fn spheres(spheres: &[(f32, [f32; 3], f32)], metals: &[usize]) -> glimpse_scene::Scene {
     let mut toml = String::from(
         "[camera]\nposition = [0.0, 1.0, 3.0]\ntarget = [0.0, 0.3, 0.0]\n[environment]\nconstant = [1.0, 1.0, 1.0]\n\
          [[light]]\nkind = \"point\"\nposition = [1.0, 2.0, 1.0]\nintensity = 3.0\n\
          [[quad]]\nsize = [4.0, 4.0]\nmaterial = { base_color = [0.5, 0.5, 0.5], roughness = 1.0 }\n",
     );
-    for (x, c, r) in spheres {
+    for (i, (x, c, r)) in spheres.iter().enumerate() {
+        let m = if metals.contains(&i) { 1.0 } else { 0.0 };
         toml += &format!(
-            "[[sphere]]\nradius = 0.3\nsegments = 16\ntranslate = [{x}, 0.3, 0.0]\nmaterial = {{ base_color = {c:?}, roughness = {r} }}\n"
+            "[[sphere]]\nradius = 0.3\nsegments = 16\ntranslate = [{x}, 0.3, 0.0]\nmaterial = {{ base_color = {c:?}, roughness = {r}, metallic = {m} }}\n"
         );
     }
     let dir = tempfile::tempdir().unwrap();
@@ -232,7 +234,7 @@ fn equal_materials_share_their_brdf_table() {
     use glimpse_render::FrameContext;
     use glimpse_wavecache::cache::WaveCache;
     let orange = [0.8, 0.4, 0.2];
-    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, orange, 0.3), (0.8, orange, 0.4)]);
+    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, orange, 0.3), (0.8, orange, 0.4)], &[]);
     assert_eq!(scene.materials.len(), 4, "one material per placement");
     let ctx = FrameContext::new(&scene, 0.0, 8, 8);
     let p = small_tables();
@@ -261,7 +263,7 @@ fn other_colours_share_white_and_black_tables() {
     use glimpse_wavecache::cache::{BrdfPlan, TablePlan, WaveCache};
     use glimpse_wavecache::technique::{Runtime, ShadePoint};
     let (orange, blue, green) = ([0.8, 0.4, 0.2], [0.1, 0.3, 0.9], [0.2, 0.7, 0.3]);
-    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, blue, 0.3), (0.8, orange, 0.4), (1.6, green, 0.3)]);
+    let scene = spheres(&[(-0.8, orange, 0.3), (0.0, blue, 0.3), (0.8, orange, 0.4), (1.6, green, 0.3)], &[]);
     let ctx = FrameContext::new(&scene, 0.0, 64, 48);
     let by_colour = |c: [f32; 3], r: f32| scene.materials.iter().position(|m| m.base_color.to_array() == c && m.roughness == r).unwrap();
     let (orange, blue, orange_rough) = (by_colour(orange, 0.3), by_colour(blue, 0.3), by_colour(orange, 0.4));
@@ -321,7 +323,7 @@ fn many_roughnesses_snap_to_the_table_limit() {
     use glimpse_wavecache::cache::{BrdfPlan, WaveCache};
     let colours = [[0.8, 0.4, 0.2], [0.1, 0.3, 0.9]];
     let placed: Vec<(f32, [f32; 3], f32)> = (0..12).map(|i| (i as f32 * 0.2 - 1.2, colours[i % 2], 0.2 + 0.02 * i as f32)).collect();
-    let scene = spheres(&placed);
+    let scene = spheres(&placed, &[]);
     let ctx = FrameContext::new(&scene, 0.0, 8, 8);
     let unlimited = WavecacheParams { brdf_max_tables: 0, ..small_tables() };
     let free = BrdfPlan::new(&ctx.frame, &unlimited);
@@ -339,4 +341,11 @@ fn many_roughnesses_snap_to_the_table_limit() {
     assert!(snap > 0.0 && snap <= step / 2.0 + 1e-6, "snapped by {snap}, half a step is {}", step / 2.0);
     let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
     assert_eq!(cache.brdf_trees.len() as u64, count * (p.brdf_grid_u1 * p.brdf_grid_u2) as u64, "the build tabulates the plan");
+    // Metals beside dielectrics: each level is tabulated for both, so half the levels.
+    let mixed = spheres(&placed, &[0, 3, 6, 9]);
+    let ctx = FrameContext::new(&mixed, 0.0, 8, 8);
+    let plan = BrdfPlan::new(&ctx.frame, &p);
+    let count = plan.table_count(&ctx.frame, &p);
+    println!("with metals: {count} tables, snapped by up to {:.4}", plan.max_snap(&ctx.frame));
+    assert!(count <= 8, "{count} tables over the limit with metals");
 }
