@@ -797,6 +797,16 @@ pub fn plan_points(frame: &SceneFrame, p: &WavecacheParams, inst_class: &[Class]
             if inst_class[i] == Class::Glossy { p.map_resolution(scene.materials[material].roughness).unwrap_or(4) } else { 0 }
         })
         .collect();
+    // A glossy mesh's fewest points by its curvature (`curvature_deg`).
+    let theta = p.curvature_deg.to_radians() as f64;
+    let curved: Vec<usize> = (0..areas.len())
+        .map(|i| {
+            if inst_class[i] != Class::Glossy || theta <= 0.0 || areas[i] <= 0.0 {
+                return 0;
+            }
+            (bake::world_mesh(frame, i).normal_coverage() as f64 / (std::f64::consts::PI * theta * theta)).ceil() as usize
+        })
+        .collect();
     let per_point = |i: usize| -> u64 {
         match inst_class[i] {
             Class::Glossy => crate::halfcube::HalfCube::new(map_res[i]).texels() as u64 * p.texel_samples as u64,
@@ -815,7 +825,8 @@ pub fn plan_points(frame: &SceneFrame, p: &WavecacheParams, inst_class: &[Class]
                     return 0;
                 }
                 let share = (budget as f64 * scale * areas[i] as f64 / area_all.max(1e-30)).round();
-                let one_side = (share.min(most_points(areas[i] as f64)) as usize).max(p.min_points as usize);
+                let fewest = (p.min_points as usize).max(curved[i]);
+                let one_side = (share.min(most_points(areas[i] as f64)) as usize).max(fewest);
                 // Both sides of an instance whose back is seen: the same density on each.
                 if p.two_sided(i) { 2 * one_side } else { one_side }
             })

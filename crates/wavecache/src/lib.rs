@@ -227,6 +227,14 @@ pub struct WavecacheParams {
     pub glossy_points: u32,
     /// Fewest points per mesh.
     pub min_points: u32,
+    /// `curvature_deg` (ours, session 27; 0 = off, `profile=paper`): a glossy mesh gets at
+    /// least enough points that neighbouring ones' normals lie about this far apart: its
+    /// normals' coverage of the sphere of directions (sr) / (π θ²), 33 for a sphere at 20°.
+    /// Why: points are shared by area, and `scenes/extra/gallery`'s 120 small spheres beside a
+    /// large glossy floor got 16 each, 28° apart on a 0.25 m sphere, whose products were twice
+    /// the highlight a map at the pixel gives. 20° (MSE against 4,096-spp `pt` 0.149 → 0.075,
+    /// precompute 34 → 50 s there) rather than 15° (0.070, 75 s, more pixels over 2× `pt`).
+    pub curvature_deg: f32,
     /// Closest spacing (r_max) a mesh's points are given, in units of the scene's diagonal
     /// (`min_spacing`; 0: none, the paper's profile): a class's budget is shared by area, so a
     /// class of tiny total area got its whole budget there ([`cache::plan_points`]).
@@ -409,6 +417,7 @@ impl Default for WavecacheParams {
             diffuse_points: 20000,
             glossy_points: 4000,
             min_points: 16,
+            curvature_deg: 20.0,
             min_spacing: 1e-3,
             path_budget: DEFAULT_PATH_BUDGET,
             path_floor: DEFAULT_PATH_FLOOR,
@@ -464,6 +473,7 @@ impl WavecacheParams {
             path_floor: 0,
             ray_budget: 0,
             min_spacing: 0.0,
+            curvature_deg: 0.0,
             trace_sharp: false,
             sharp_texels: 1.0,
             search_radius: f32::INFINITY,
@@ -558,6 +568,7 @@ impl WavecacheParams {
             diffuse_points: params.u32("diffuse_points", base.diffuse_points, 1, 50_000_000)?,
             glossy_points: params.u32("glossy_points", base.glossy_points, 1, 50_000_000)?,
             min_points: params.u32("min_points", base.min_points, 1, 1_000_000)?,
+            curvature_deg: params.f32("curvature_deg", base.curvature_deg, 0.0, 180.0)?,
             min_spacing: params.f32("min_spacing", base.min_spacing, 0.0, 1.0)?,
             path_budget: params.i64("budget", base.path_budget as i64, 0, 1 << 40)? as u64,
             path_floor: params.i64("path_floor", base.path_floor as i64, 0, 1 << 40)? as u64,

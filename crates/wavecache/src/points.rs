@@ -48,6 +48,42 @@ impl WorldMesh {
         self.triangles.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()).sum()
     }
 
+    /// The solid angle (sr) of the directions its shading normals cover, on a grid of 16 × 32
+    /// equal cells (0.0245 sr, about 9° across): 4π for a sphere, one cell for a plane. Each
+    /// triangle's normals are interpolated over a barycentric grid fine enough to step under 4°
+    /// between samples, so a coarse tessellation's smooth normals cover what they span.
+    pub fn normal_coverage(&self) -> f32 {
+        const BANDS: usize = 16;
+        const SECTORS: usize = 32;
+        let mut hit = [false; BANDS * SECTORS];
+        let mut mark = |v: Vec3| {
+            if !v.is_finite() || v.length_squared() <= 0.0 {
+                return;
+            }
+            let v = v.normalize();
+            // Bands uniform in z are equal in solid angle.
+            let band = (((v.z + 1.0) * 0.5 * BANDS as f32) as usize).min(BANDS - 1);
+            let phi = v.y.atan2(v.x) / std::f32::consts::TAU + 0.5;
+            let sector = ((phi * SECTORS as f32) as usize).min(SECTORS - 1);
+            hit[band * SECTORS + sector] = true;
+        };
+        for (t, n) in self.triangles.iter().zip(&self.normals) {
+            if (t[1] - t[0]).cross(t[2] - t[0]).length_squared() <= 0.0 {
+                continue;
+            }
+            let n = n.map(|v| v.normalize_or_zero());
+            let cos = n[0].dot(n[1]).min(n[1].dot(n[2])).min(n[2].dot(n[0])).clamp(-1.0, 1.0);
+            let steps = (cos.acos() / 4f32.to_radians()).ceil().clamp(1.0, 16.0) as u32;
+            for i in 0..=steps {
+                for j in 0..=steps - i {
+                    let (a, b) = (i as f32 / steps as f32, j as f32 / steps as f32);
+                    mark(n[0] * a + n[1] * b + n[2] * (1.0 - a - b));
+                }
+            }
+        }
+        hit.iter().filter(|&&h| h).count() as f32 * (4.0 * std::f32::consts::PI / (BANDS * SECTORS) as f32)
+    }
+
     /// `count` area-proportional random points.
     pub fn sample(&self, count: usize, rng: &mut Rng) -> Vec<SurfaceSample> {
         let mut cdf = Vec::with_capacity(self.triangles.len());

@@ -349,3 +349,36 @@ fn many_roughnesses_snap_to_the_table_limit() {
     println!("with metals: {count} tables, snapped by up to {:.4}", plan.max_snap(&ctx.frame));
     assert!(count <= 8, "{count} tables over the limit with metals");
 }
+
+/// A glossy mesh gets at least enough points for its curvature (`curvature_deg`): its normals'
+/// coverage of the sphere of directions / (π θ²), 33 for a sphere at 20°, where sharing the
+/// budget by area gave it 16 (`scenes/extra/gallery`'s spheres, 28° apart: highlights twice
+/// too bright); a flat mesh covers one cell of directions and keeps the area's share.
+#[test]
+fn curved_glossy_meshes_get_points_for_their_curvature() {
+    use glimpse_wavecache::bake::world_mesh;
+    let scene = spheres(&[(-0.8, [0.8, 0.4, 0.2], 0.3), (0.0, [0.1, 0.3, 0.9], 0.3)], &[]);
+    let frame = scene.at(0.0);
+    let sphere = (0..scene.instances.len()).find(|&i| world_mesh(&frame, i).triangles.len() > 2).unwrap();
+    let floor = (0..scene.instances.len()).find(|&i| world_mesh(&frame, i).triangles.len() == 2).unwrap();
+    let (cs, cf) = (world_mesh(&frame, sphere).normal_coverage(), world_mesh(&frame, floor).normal_coverage());
+    println!("normal coverage: sphere {cs:.2} sr, floor {cf:.4} sr");
+    assert!((cs - 4.0 * std::f32::consts::PI).abs() < 0.5, "a sphere's normals cover every direction");
+    assert!(cf < 0.03, "a plane's normals are one direction");
+    let points = |curvature_deg: f32| {
+        let p = WavecacheParams { curvature_deg, path_floor: 0, path_budget: 0, ..small_tables() };
+        let (classes, areas) = classes_and_areas(&frame, &p);
+        plan_points(&frame, &p, &classes, &areas).points[sphere]
+    };
+    let (flat, curved) = (points(0.0), points(WavecacheParams::default().curvature_deg));
+    println!("sphere points: {flat} by area, {curved} at the default 20°");
+    assert_eq!(flat, 16, "the area's share (16 each) or min_points");
+    assert!((31..=36).contains(&curved), "{curved} points for a sphere at 20°");
+    // The tuned scenes' curved glossy meshes already had more: their plans are unchanged.
+    let root = env!("CARGO_MANIFEST_DIR");
+    let bunny = format!("{root}/scenes/bunny-glossy.toml");
+    let shared = std::path::Path::new(root).join("../../../shared/scenes/stanford-bunny").exists();
+    for tuned in ["glossy"].into_iter().chain(shared.then_some(bunny.as_str())) {
+        assert_eq!(plan(tuned, &["curvature_deg=0"]).points, plan(tuned, &[]).points, "{tuned}'s plan changed");
+    }
+}
