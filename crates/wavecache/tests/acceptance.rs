@@ -995,6 +995,8 @@ fn far_cache_points_are_traced_not_read() {
             diffuse_points: points,
             glossy_points: points,
             min_points: 1,
+            // Sparse on purpose: no curvature minimum.
+            curvature_deg: 0.0,
             trace_far,
             trace_disagree: f32::INFINITY,
             disagree_auto: false,
