@@ -506,8 +506,8 @@ impl<'a> Runtime<'a> {
     }
 
     /// Eq. 20: the blended BRDF trees of `material` with base colour `base` (its texel) at
-    /// `wo_local` ⊗ radiance tree `tree`. A table of another base b (white, or the factor of a
-    /// textured material) is read at base / b per channel with its black table: black + ratio ×
+    /// `wo_local` ⊗ radiance tree `tree`. A table of another base b (white, for a textured material
+    /// or one sharing its tables with other colours) is read at base / b per channel with its black table: black + ratio ×
     /// (b's − black's), exact (the BRDF is affine in the base colour); a material's own table
     /// (ratio 1) alone.
     pub fn glossy(&self, material: u32, base: Vec3, wo_local: Vec3, tree: u32) -> Vec3 {
