@@ -22,7 +22,7 @@ use crate::row::Row;
 use crate::voxelize::Grid;
 use crate::{Array, Rows, VoxArray, VoxArrayParams};
 use glimpse_core::Vec3;
-use glimpse_core::cache_file::{self, CacheFormat};
+use glimpse_core::cache_file::{self, CacheFormat, PayloadReader};
 use rayon::prelude::*;
 use std::path::{Path, PathBuf};
 
@@ -45,7 +45,7 @@ pub fn path_for(dir: &Path, triangles: &[[Vec3; 3]], focus: Option<glimpse_core:
 /// The array from the cache at `path` if it is there and valid for `p`; else `None` (a bad file
 /// is reported and deleted by [`cache_file::load_or_discard`]).
 pub fn load(path: &Path, p: &VoxArrayParams) -> Option<VoxArray> {
-    cache_file::load_or_discard(path, FORMAT, READ_LIMIT, |payload| from_payload(payload, p))
+    cache_file::load_streamed_or_discard(path, FORMAT, READ_LIMIT, |r| from_payload(r, p), |_| Ok(()))
 }
 
 /// Writes a compressed array; plain arrays are not cached (returns `Ok(false)`).
@@ -96,42 +96,55 @@ fn to_payload<R: Row>(a: &Array<R>) -> Option<(Vec<u8>, &[u8], Vec<u8>)> {
     Some((head, bytemuck::cast_slice(&c.indices), out))
 }
 
-/// Reads little-endian fields off the front of a payload, failing on a short one.
-struct Reader<'a>(&'a [u8]);
+/// Little-endian fields read off the payload stream, each checked against what is left before
+/// anything is allocated for it.
+struct Fields<'r, 'a>(&'r mut PayloadReader<'a>);
 
-impl<'a> Reader<'a> {
-    fn take(&mut self, n: usize) -> Result<&'a [u8], String> {
-        if self.0.len() < n {
-            return Err(format!("payload ends early ({} bytes left, {n} needed)", self.0.len()));
-        }
-        let (head, rest) = self.0.split_at(n);
-        self.0 = rest;
-        Ok(head)
+impl Fields<'_, '_> {
+    fn bytes<const N: usize>(&mut self) -> Result<[u8; N], String> {
+        let mut b = [0u8; N];
+        self.0.read_exact(&mut b)?;
+        Ok(b)
     }
     fn u32(&mut self) -> Result<u32, String> {
-        Ok(u32::from_le_bytes(self.take(4)?.try_into().unwrap()))
+        self.bytes().map(u32::from_le_bytes)
     }
     fn u64(&mut self) -> Result<u64, String> {
-        Ok(u64::from_le_bytes(self.take(8)?.try_into().unwrap()))
+        self.bytes().map(u64::from_le_bytes)
     }
     fn f32(&mut self) -> Result<f32, String> {
-        Ok(f32::from_le_bytes(self.take(4)?.try_into().unwrap()))
+        self.bytes().map(f32::from_le_bytes)
+    }
+    fn f64(&mut self) -> Result<f64, String> {
+        self.bytes().map(f64::from_le_bytes)
+    }
+    /// `count` elements of `size` bytes, read straight into their array.
+    fn array<T: bytemuck::Pod>(&mut self, count: u64, what: &str) -> Result<Vec<T>, String> {
+        let bytes = count.checked_mul(std::mem::size_of::<T>() as u64).filter(|&b| b <= self.0.remaining());
+        if bytes.is_none() {
+            return Err(format!("{count} {what}, {} bytes left", self.0.remaining()));
+        }
+        let mut v = vec![T::zeroed(); count as usize];
+        self.0.read_exact(bytemuck::cast_slice_mut(&mut v))?;
+        Ok(v)
     }
 }
 
-fn from_payload(payload: &[u8], p: &VoxArrayParams) -> Result<VoxArray, String> {
-    let bits = u32::from_le_bytes(payload.get(..4).ok_or("empty payload")?.try_into().unwrap());
+/// The array's first field (its resolution) picks the row type.
+fn from_payload(r: &mut PayloadReader, p: &VoxArrayParams) -> Result<VoxArray, String> {
+    let bits = Fields(r).u32()?;
     match bits {
-        32 => parse::<u32>(payload, p).map(VoxArray::R32),
-        64 => parse::<u64>(payload, p).map(VoxArray::R64),
-        128 => parse::<u128>(payload, p).map(VoxArray::R128),
+        32 => parse::<u32>(r, p).map(VoxArray::R32),
+        64 => parse::<u64>(r, p).map(VoxArray::R64),
+        128 => parse::<u128>(r, p).map(VoxArray::R128),
         _ => Err(format!("resolution {bits} (32, 64 or 128)")),
     }
 }
 
-fn parse<R: Row>(payload: &[u8], p: &VoxArrayParams) -> Result<Array<R>, String> {
-    let mut r = Reader(payload);
-    let bits = r.u32()?;
+/// The rest of the payload after its resolution, `R::BITS`.
+fn parse<R: Row>(payload: &mut PayloadReader, p: &VoxArrayParams) -> Result<Array<R>, String> {
+    let mut r = Fields(payload);
+    let bits = R::BITS;
     let n = r.u32()?;
     if bits != p.resolution || n != p.directions {
         return Err(format!("array {bits}³ × {n}² where {}³ × {}² was asked", p.resolution, p.directions));
@@ -143,7 +156,7 @@ fn parse<R: Row>(payload: &[u8], p: &VoxArrayParams) -> Result<Array<R>, String>
     if f.iter().any(|v| !v.is_finite()) || f[3] <= 0.0 {
         return Err("non-finite grid or bias, or a non-positive scale".into());
     }
-    let skip_start_run = r.take(1)?[0] != 0;
+    let skip_start_run = r.bytes::<1>()?[0] != 0;
     let index_bits = r.u32()?;
     let rows = r.u64()?;
     let expected_rows = (n as u64).pow(2) * (bits as u64).pow(2);
@@ -155,13 +168,14 @@ fn parse<R: Row>(payload: &[u8], p: &VoxArrayParams) -> Result<Array<R>, String>
         return Err(format!("{dict_len} dictionary rows for {index_bits}-bit indices"));
     }
     let dictionary: Vec<R> =
-        r.take(dict_len as usize * 16)?.chunks_exact(16).map(|b| R::from_u128(u128::from_le_bytes(b.try_into().unwrap()))).collect();
+        r.array::<[u8; 16]>(dict_len, "dictionary rows")?.into_iter().map(|b| R::from_u128(u128::from_le_bytes(b))).collect();
     let words = r.u64()?;
     // The query reads two words per index: one spare word past the last row's.
     if words < (rows * index_bits as u64).div_ceil(64) + 1 {
         return Err(format!("{words} index words for {rows} rows of {index_bits} bits"));
     }
-    let indices: Vec<u64> = r.take(words as usize * 8)?.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().unwrap())).collect();
+    // Read in place: the indices are most of the file (a 128³ × 90² array's: about 350 MB).
+    let indices: Vec<u64> = r.array(words, "index words")?.into_iter().map(u64::from_le).collect();
     let compressed = Compressed { dictionary, index_bits, indices, rows: rows as usize };
     let bad = (0..compressed.rows).into_par_iter().find_any(|&row| compressed.index(row) as u64 >= dict_len);
     if let Some(row) = bad {
@@ -169,15 +183,12 @@ fn parse<R: Row>(payload: &[u8], p: &VoxArrayParams) -> Result<Array<R>, String>
     }
     let mut report =
         CompressionReport { rows: r.u64()?, distinct_rows: r.u64()?, dictionary_rows: r.u64()?, random: r.u64()?, ..Default::default() };
-    report.ms = f64::from_le_bytes(r.take(8)?.try_into().unwrap());
+    report.ms = r.f64()?;
     let steps = r.u32()?;
     if steps > 64 {
         return Err(format!("{steps} compression steps"));
     }
     report.mapped_at_step = (0..steps).map(|_| r.u64()).collect::<Result<_, _>>()?;
-    if !r.0.is_empty() {
-        return Err(format!("{} bytes after the payload", r.0.len()));
-    }
     Ok(Array {
         grid: Grid { resolution: bits, center: Vec3::new(f[0], f[1], f[2]), scale: f[3] },
         dirs: Directions::new(n),

@@ -112,6 +112,14 @@ fn bad_cache_files_are_refused_and_deleted() {
             p.drain(57 + 16..57 + 16 * len);
         }),
     ));
+    // A length far past the file's end is refused before anything is allocated for it.
+    cases.push((
+        "a dictionary of 2³² rows in a small file",
+        reencode(&|p| {
+            p[37..41].copy_from_slice(&32u32.to_le_bytes());
+            p[49..57].copy_from_slice(&(1u64 << 32).to_le_bytes());
+        }),
+    ));
     cases.push(("trailing bytes", reencode(&|p| p.extend_from_slice(&[0; 3]))));
     for (what, bytes) in cases {
         std::fs::write(&path, &bytes).unwrap();

@@ -661,7 +661,7 @@ impl BrdfPlan {
     /// ([`BrdfPlan::max_snap`]).
     pub fn new(frame: &SceneFrame, p: &WavecacheParams) -> BrdfPlan {
         let own: Vec<f32> = frame.scene.materials.iter().map(|m| m.roughness).collect();
-        let max = p.brdf_max_tables as u64;
+        let max = Self::max_tables(p);
         let fits = |plan: &BrdfPlan| max == 0 || plan.table_count(frame, p) <= max;
         let plan = Self::with_roughness(frame, p, own.clone(), false);
         if fits(&plan) {
@@ -689,6 +689,24 @@ impl BrdfPlan {
         };
         let snapped = plan.roughness.iter().zip(&plan.tables).map(|(&r, t)| if t.is_some() && hi > lo { snap(r) } else { r }).collect();
         Self::with_roughness(frame, p, snapped, true)
+    }
+
+    /// The table limit (0: none): `brdf_max_tables`, and no more than fit
+    /// [`crate::BRDF_TABLES_MAX_BYTES`] if every table were as large as it can be
+    /// ([`BrdfPlan::max_table_bytes`]), so the tables stay under it at any resolution and grid.
+    pub fn max_tables(p: &WavecacheParams) -> u64 {
+        match p.brdf_max_tables {
+            0 => 0,
+            n => (n as u64).min((crate::BRDF_TABLES_MAX_BYTES / Self::max_table_bytes(p)).max(1)),
+        }
+    }
+
+    /// The most bytes one table can take: a tree per ω_o, each with every node of its N² map's
+    /// quadtree ((N² − 1)/3 nodes; 39 MB at the defaults; a table measured 5.8–30 MB).
+    pub fn max_table_bytes(p: &WavecacheParams) -> u64 {
+        let n2 = (p.brdf_res as u64).pow(2);
+        let per_tree = (n2 - 1) / 3 * std::mem::size_of::<HaarNode>() as u64 + std::mem::size_of::<TreeRef>() as u64;
+        (p.brdf_grid_u1 * p.brdf_grid_u2) as u64 * per_tree
     }
 
     /// The plan at these roughnesses; `share_colours`: materials whose BRDF differs only in

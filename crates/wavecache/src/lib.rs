@@ -164,9 +164,16 @@ pub fn small_cached_sources(frame: &glimpse_scene::SceneFrame) -> bool {
 }
 
 /// Default `brdf_max_tables` (ours): a table takes about 24 MiB at the default ω_o grid and
-/// resolution (`scenes/extra/forest`: 100 tables, 2.4 GiB), so 96 keep the tables near 2.3 GiB,
+/// resolution (`scenes/extra/forest`: 95 tables, 2.39 GiB), so 96 keep the tables near 2.3 GiB,
 /// under the 4 GiB target with the lighting cache (under 0.1 GiB on every suite scene).
 pub const DEFAULT_BRDF_MAX_TABLES: u32 = 96;
+
+/// The BRDF tables' bound in bytes (ours): fewer tables than `brdf_max_tables` where tables as
+/// large as they can be would pass it (a finer `brdf_res` or ω_o grid;
+/// [`cache::BrdfPlan::max_tables`]). At the defaults it allows 97 tables of 39 MB at most, so
+/// `brdf_max_tables` (96) binds there, and leaves 0.46 GiB of the 4 GiB target to the lighting
+/// cache.
+pub const BRDF_TABLES_MAX_BYTES: u64 = 3_800_000_000;
 
 /// The default `budget`: the lighting precomputation's paths, about the tuned `glossy` scene's
 /// and the bunnys (58M and 76M paths; 21 s and 35 s on the 2-core development machine).

@@ -28,7 +28,7 @@
 use crate::bake::CachePoint;
 use crate::brdf;
 use crate::brdf::BrdfTable;
-use crate::cache::{ALBEDO_BINS, NO_VISIBILITY, WaveCache, cache_key};
+use crate::cache::{ALBEDO_BINS, BrdfPlan, NO_VISIBILITY, WaveCache, cache_key};
 use crate::env_direct::EnvSampler;
 use crate::haar;
 use crate::halfcube::{HalfCube, map_frame};
@@ -173,17 +173,26 @@ impl Wavecache {
         let c = c?;
         stats.stage("brdf tables", c.build_info.first().copied().unwrap_or(0.0));
         // What the memory holds: the distinct BRDF tables and their bytes beside the lighting's.
-        let plan = crate::cache::BrdfPlan::new(&ctx.frame, &p);
+        let plan = BrdfPlan::new(&ctx.frame, &p);
         let tables = plan.table_count(&ctx.frame, &p);
         stats.metrics.push(("brdf_tables".to_owned(), tables as f64));
         let snap = plan.max_snap(&ctx.frame);
         if snap > 0.0 {
             // A parameter the scene made us choose: said once, with how to undo it.
             stats.metrics.push(("brdf_roughness_snap".to_owned(), snap as f64));
-            let fit = if tables <= p.brdf_max_tables as u64 { "to fit" } else { "and still over (its metallic values and models vary)" };
+            let max = BrdfPlan::max_tables(&p);
+            let fit = if tables <= max { "to fit" } else { "and still over (its metallic values and models vary)" };
+            let limit = if max < p.brdf_max_tables as u64 {
+                format!(
+                    "the {max} tables of {:.0} MB at most that fit {:.1} GB",
+                    BrdfPlan::max_table_bytes(&p) as f64 / 1e6,
+                    crate::BRDF_TABLES_MAX_BYTES as f64 / 1e9
+                )
+            } else {
+                format!("brdf_max_tables={max}")
+            };
             eprintln!(
-                "wavecache: glossy roughnesses snapped by up to {snap:.4}: {tables} BRDF tables, {fit} brdf_max_tables={} (brdf_max_tables=0 lifts it)",
-                p.brdf_max_tables
+                "wavecache: glossy roughnesses snapped by up to {snap:.4}: {tables} BRDF tables, {fit} {limit} (brdf_max_tables=0 lifts it)"
             );
         }
         stats.metrics.push(("brdf_mib".to_owned(), c.brdf_bytes() as f64 / (1u64 << 20) as f64));

@@ -350,6 +350,43 @@ fn many_roughnesses_snap_to_the_table_limit() {
     assert!(count <= 8, "{count} tables over the limit with metals");
 }
 
+/// The table limit is also a bound in bytes: no table can pass [`BrdfPlan::max_table_bytes`]
+/// (every tree full), and a finer resolution allows fewer tables, so the tables stay under
+/// `BRDF_TABLES_MAX_BYTES` whatever `brdf_res` and the ω_o grid are.
+#[test]
+fn the_table_limit_bounds_the_tables_bytes() {
+    use glimpse_render::FrameContext;
+    use glimpse_wavecache::BRDF_TABLES_MAX_BYTES;
+    use glimpse_wavecache::cache::{BrdfPlan, WaveCache};
+    let defaults = WavecacheParams::default();
+    let (bytes, max) = (BrdfPlan::max_table_bytes(&defaults), BrdfPlan::max_tables(&defaults));
+    println!("defaults: a table is at most {:.1} MB, {max} tables", bytes as f64 / 1e6);
+    assert_eq!(max, defaults.brdf_max_tables as u64, "brdf_max_tables binds at the defaults");
+    assert!(max * bytes <= BRDF_TABLES_MAX_BYTES);
+    // A smooth dielectric and a rough metal, each tabulated: under the bound.
+    let placed = [(-0.6, [0.8, 0.4, 0.2], 0.02), (0.6, [0.5, 0.5, 0.5], 0.6)];
+    let scene = spheres(&placed, &[1]);
+    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+    let p = small_tables();
+    let cache = WaveCache::build(&ctx.frame, &ctx.tracer, &p, 1, 0, &|_| {}).unwrap();
+    let (tables, bound) = (cache.brdf_tables.len().max(1) as u64, BrdfPlan::max_table_bytes(&p));
+    println!("{} bytes of BRDF tables for 2 materials, {bound} at most each", cache.brdf_bytes());
+    assert!(cache.brdf_bytes() as u64 <= 2 * bound, "{} bytes for 2 tables", cache.brdf_bytes());
+    assert!(tables >= 2);
+    // 128² maps: a table may take 626 MB, so 6 fit, and 12 roughnesses snap to 3 levels.
+    let fine = WavecacheParams { brdf_res: 128, ..defaults };
+    assert_eq!(BrdfPlan::max_tables(&fine), 6);
+    let placed: Vec<(f32, [f32; 3], f32)> = (0..12).map(|i| (i as f32 * 0.2 - 1.2, [0.8, 0.4, 0.2], 0.2 + 0.02 * i as f32)).collect();
+    let scene = spheres(&placed, &[]);
+    let ctx = FrameContext::new(&scene, 0.0, 8, 8);
+    let plan = BrdfPlan::new(&ctx.frame, &fine);
+    let count = plan.table_count(&ctx.frame, &fine);
+    println!("brdf_res 128: {count} tables, snapped by up to {:.4}", plan.max_snap(&ctx.frame));
+    assert!(count <= 6 && plan.max_snap(&ctx.frame) > 0.0, "{count} tables");
+    // brdf_max_tables=0 (the paper's profile) lifts both limits.
+    assert_eq!(BrdfPlan::max_tables(&WavecacheParams { brdf_max_tables: 0, ..fine }), 0);
+}
+
 /// A glossy mesh gets at least enough points for its curvature (`curvature_deg`): its normals'
 /// coverage of the sphere of directions / (π θ²), 33 for a sphere at 20°, where sharing the
 /// budget by area gave it 16 (`scenes/extra/gallery`'s spheres, 28° apart: highlights twice
