@@ -98,7 +98,7 @@ fn splat(map: &mut [f32], r: usize, x: f32, y: f32, radius: f32, depth: f32) {
 impl ImperfectShadowMaps {
     pub fn build(occluders: &Occluders, lights: &[WorldLight], p: &IsmParams) -> Self {
         let tris = &occluders.triangles;
-        let pool = sample_points(tris, 8 * p.points_per_map as usize, p.seed);
+        let pool = sample_points(occluders, 8 * p.points_per_map as usize, p.seed);
         let total_area: f64 = tris.iter().map(|t| 0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length() as f64).sum();
         let r = p.resolution as usize;
         let mut depth = vec![f32::INFINITY; lights.len() * r * r];
@@ -211,9 +211,10 @@ fn pull_push(map: &mut [f32], r: usize) {
     map.copy_from_slice(&parent.1);
 }
 
-/// `count` points uniformly by area over the triangles (seeded), each with its triangle's unit
-/// normal.
-fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
+/// `count` points uniformly by area over the occluders (seeded), each with its triangle's unit
+/// normal; those that fall in an alpha mask's cut-out are dropped (the surface is not there).
+fn sample_points(occluders: &Occluders, count: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
+    let tris = &occluders.triangles;
     let mut cdf = Vec::with_capacity(tris.len());
     let mut total = 0.0f64;
     for t in tris {
@@ -225,12 +226,13 @@ fn sample_points(tris: &[[Vec3; 3]], count: usize, seed: u64) -> Vec<(Vec3, Vec3
     }
     let mut rng = Rng::new(seed, 0x15a);
     (0..count)
-        .map(|_| {
+        .filter_map(|_| {
             let u = rng.next_f32() as f64 * total;
             let k = cdf.partition_point(|&c| c < u).min(tris.len() - 1);
             let b = glimpse_core::sampling::uniform_triangle(rng.next_2d());
             let t = tris[k];
-            (t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y, (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y))
+            let point = (t[0] * (1.0 - b.x - b.y) + t[1] * b.x + t[2] * b.y, (t[1] - t[0]).cross(t[2] - t[0]).normalize_or(Vec3::Y));
+            (!occluders.hole(k, b.x, b.y)).then_some(point)
         })
         .collect()
 }

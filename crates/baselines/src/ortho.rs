@@ -65,8 +65,10 @@ impl OrthoMap {
         (q.x >= 0.0 && q.y >= 0.0 && q.x < r && q.y < r).then(|| q.y as usize * self.resolution as usize + q.x as usize)
     }
 
-    /// Rasterizes a world triangle into `map` (`resolution²` nearest depths) at texel centres.
-    pub fn raster(&self, map: &mut [f32], tri: &[Vec3; 3]) {
+    /// Rasterizes a world triangle into `map` (`resolution²` nearest depths) at texel centres,
+    /// leaving out those where `hole(b1, b2)` (the texel centre's barycentrics of vertices 1 and
+    /// 2: an alpha mask's cut-out; `None` in a scene without masks).
+    pub fn raster(&self, map: &mut [f32], tri: &[Vec3; 3], hole: Option<impl Fn(f32, f32) -> bool>) {
         let [p0, p1, p2] = tri.map(|v| self.project(v));
         let area = (p1.x - p0.x) * (p2.y - p0.y) - (p1.y - p0.y) * (p2.x - p0.x);
         if area.abs() < 1e-12 {
@@ -89,7 +91,7 @@ impl OrthoMap {
                 let b0 = ((p1.x - px) * (p2.y - py) - (p1.y - py) * (p2.x - px)) * inv;
                 let b1 = ((p2.x - px) * (p0.y - py) - (p2.y - py) * (p0.x - px)) * inv;
                 let b2 = 1.0 - b0 - b1;
-                if b0 < 0.0 || b1 < 0.0 || b2 < 0.0 {
+                if b0 < 0.0 || b1 < 0.0 || b2 < 0.0 || hole.as_ref().is_some_and(|h| h(b1, b2)) {
                     continue;
                 }
                 let depth = b0 * p0.z + b1 * p1.z + b2 * p2.z;
@@ -130,8 +132,9 @@ mod tests {
         // A horizontal square blocker at y = 1 over the floor y = 0.
         let mut map = vec![f32::INFINITY; 64 * 64];
         let s = |x: f32, z: f32| Vec3::new(x, 1.0, z);
-        m.raster(&mut map, &[s(-0.5, -0.5), s(0.5, -0.5), s(0.5, 0.5)]);
-        m.raster(&mut map, &[s(-0.5, -0.5), s(0.5, 0.5), s(-0.5, 0.5)]);
+        let opaque = None::<fn(f32, f32) -> bool>;
+        m.raster(&mut map, &[s(-0.5, -0.5), s(0.5, -0.5), s(0.5, 0.5)], opaque);
+        m.raster(&mut map, &[s(-0.5, -0.5), s(0.5, 0.5), s(-0.5, 0.5)], opaque);
         // The point on the floor straight "below" the blocker's centre along the light.
         let t = 1.0 / -dir.y;
         let under = Vec3::new(0.0, 1.0, 0.0) + dir * t;

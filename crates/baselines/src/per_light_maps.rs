@@ -9,7 +9,7 @@ use glimpse_render::direct::{self, Shading};
 use glimpse_render::focus::Focus;
 use glimpse_render::metrics::epsilon;
 use glimpse_render::{FrameContext, ParamError, Params, RenderError, Settings, Stats, Technique};
-use glimpse_scene::{Scene, SceneFrame, WorldLight};
+use glimpse_scene::{Cutouts, Scene, SceneFrame, WorldLight};
 use glimpse_trace::GBuffer;
 use std::f32::consts::PI;
 
@@ -26,22 +26,46 @@ pub struct Occluders {
     pub bounds: Aabb,
     /// The focus's share of the scene's diagonal, where one is used.
     pub focus_share: Option<f32>,
+    /// In a scene with alpha masks: their coverage, and each triangle's (instance, triangle).
+    cutouts: Option<(Cutouts, Vec<(u32, u32)>)>,
 }
 
 impl Occluders {
     /// Every triangle of `frame`, the scene's bounds.
     pub fn whole(frame: &SceneFrame) -> Self {
-        Self { triangles: frame.world_triangles(), bounds: frame.bounds, focus_share: None }
+        Self::of(frame, &[], false)
     }
 
     /// With `focus`, the triangles that may block a shadow ray toward `lights` where they are
     /// much smaller than the scene; otherwise [`Occluders::whole`].
     pub fn of(frame: &SceneFrame, lights: &[WorldLight], focus: bool) -> Self {
         let triangles = frame.world_triangles();
+        let cutouts = Cutouts::new(frame.scene).map(|c| (c, frame.world_triangle_ids()));
         match if focus { Focus::occluders(&triangles, frame.bounds, lights) } else { None } {
-            Some(f) => Self { triangles: f.inside(&triangles), bounds: f.bounds, focus_share: Some(f.share_of(frame.bounds)) },
-            None => Self { triangles, bounds: frame.bounds, focus_share: None },
+            Some(f) => Self {
+                triangles: f.inside(&triangles),
+                bounds: f.bounds,
+                focus_share: Some(f.share_of(frame.bounds)),
+                cutouts: cutouts.map(|(c, ids)| (c, f.inside(&ids))),
+            },
+            None => Self { triangles, bounds: frame.bounds, focus_share: None, cutouts },
         }
+    }
+
+    /// Whether the point at barycentrics (`b1`, `b2`) of occluder `k` is cut out (glTF alpha
+    /// MASK): maps test it per texel and per point sample, as engines alpha-test a shadow
+    /// map's depth pass, so they agree with the references, which cut masks out.
+    #[inline]
+    pub fn hole(&self, k: usize, b1: f32, b2: f32) -> bool {
+        self.cutouts.as_ref().is_some_and(|(c, ids)| {
+            let (instance, triangle) = ids[k];
+            c.hole(instance, triangle, b1, b2)
+        })
+    }
+
+    /// Whether any occluder can have holes ([`Occluders::hole`]).
+    pub fn has_holes(&self) -> bool {
+        self.cutouts.is_some()
     }
 }
 

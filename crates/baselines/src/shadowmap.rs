@@ -110,13 +110,13 @@ impl CubeShadowMaps {
             let lp = match projection {
                 LightProjection::Cube(lp) => lp,
                 LightProjection::Ortho(m) => {
-                    for t in tris {
-                        m.raster(&mut maps[..r * r], t);
+                    for (k, t) in tris.iter().enumerate() {
+                        m.raster(&mut maps[..r * r], t, occluders.has_holes().then_some(|b1, b2| occluders.hole(k, b1, b2)));
                     }
                     return;
                 }
             };
-            for t in tris {
+            for (k, t) in tris.iter().enumerate() {
                 let d = t.map(|v| v - *lp);
                 for face in 0..6 {
                     let q = d.map(|v| face_coords(face, v));
@@ -129,7 +129,8 @@ impl CubeShadowMaps {
                     {
                         continue;
                     }
-                    raster_face(&mut maps[face * r * r..(face + 1) * r * r], r, q);
+                    let hole = occluders.has_holes().then_some(|b1, b2| occluders.hole(k, b1, b2));
+                    raster_face(&mut maps[face * r * r..(face + 1) * r * r], r, q, hole);
                 }
             }
         });
@@ -166,20 +167,27 @@ impl CubeShadowMaps {
     }
 }
 
-/// Rasterizes one triangle (face coordinates) into one face: min depth at texel centres.
-fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
-    // Clip against w ≥ NEAR (Sutherland–Hodgman), at most 4 vertices.
+/// Rasterizes one triangle (face coordinates) into one face: min depth at texel centres, but
+/// where `hole(b1, b2)` (the triangle's own barycentrics of vertices 1 and 2 there,
+/// perspective-correct: an alpha mask's cut-out; `None` in a scene without masks).
+fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3], hole: Option<impl Fn(f32, f32) -> bool>) {
+    // Clip against w ≥ NEAR (Sutherland–Hodgman), at most 4 vertices, each with the
+    // triangle's barycentrics (b1, b2) at it.
+    let bary = [(0.0f32, 0.0f32), (1.0, 0.0), (0.0, 1.0)];
     let mut poly = [(0.0f32, 0.0f32, 0.0f32); 4];
+    let mut attr = [(0.0f32, 0.0f32); 4];
     let mut n = 0;
     for i in 0..3 {
-        let (a, b) = (q[i], q[(i + 1) % 3]);
+        let j = (i + 1) % 3;
+        let (a, b) = (q[i], q[j]);
         if a.2 >= NEAR {
-            poly[n] = a;
+            (poly[n], attr[n]) = (a, bary[i]);
             n += 1;
         }
         if (a.2 >= NEAR) != (b.2 >= NEAR) {
             let t = (NEAR - a.2) / (b.2 - a.2);
             poly[n] = (a.0 + (b.0 - a.0) * t, a.1 + (b.1 - a.1) * t, NEAR);
+            attr[n] = (bary[i].0 + (bary[j].0 - bary[i].0) * t, bary[i].1 + (bary[j].1 - bary[i].1) * t);
             n += 1;
         }
     }
@@ -192,6 +200,7 @@ fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
         poly[..n].iter().map(|v| (((v.0 / v.2) * 0.5 + 0.5) * rf, ((v.1 / v.2) * 0.5 + 0.5) * rf, 1.0 / v.2)).collect();
     for k in 1..n - 1 {
         let (p0, p1, p2) = (s[0], s[k], s[k + 1]);
+        let (a0, a1, a2) = (attr[0], attr[k], attr[k + 1]);
         let area = (p1.0 - p0.0) * (p2.1 - p0.1) - (p1.1 - p0.1) * (p2.0 - p0.0);
         if area.abs() < 1e-12 {
             continue;
@@ -215,6 +224,13 @@ fn raster_face(map: &mut [f32], r: usize, q: [(f32, f32, f32); 3]) {
                     continue;
                 }
                 let w = 1.0 / (b0 * p0.2 + b1 * p1.2 + b2 * p2.2);
+                if let Some(hole) = &hole {
+                    // Attributes interpolate linearly in 1/w (perspective-correct).
+                    let (c0, c1, c2) = (b0 * p0.2 * w, b1 * p1.2 * w, b2 * p2.2 * w);
+                    if hole(c0 * a0.0 + c1 * a1.0 + c2 * a2.0, c0 * a0.1 + c1 * a1.1 + c2 * a2.1) {
+                        continue;
+                    }
+                }
                 let t = &mut map[y * r + x];
                 if w < *t {
                     *t = w;

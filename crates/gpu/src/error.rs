@@ -19,6 +19,8 @@ pub enum GpuError {
     TreeTooDeep { depth: usize, max: usize },
     #[error("the scene has {0} triangles; the GPU layout indexes at most 2^32 − 2")]
     TooManyTriangles(usize),
+    #[error("material '{0}' is alpha-masked (glTF MASK), which the GPU tracer does not test; use the CPU techniques")]
+    AlphaMask(String),
     #[error("shader '{label}': {message}")]
     Shader { label: String, message: String },
     #[error("GPU validation error: {0}")]

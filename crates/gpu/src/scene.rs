@@ -42,7 +42,12 @@ pub struct GpuScene {
 
 impl GpuScene {
     /// Flattens, builds and uploads `frame`; the copy is timed as "upload" on `timer`.
+    /// A scene with alpha-masked materials is refused: the GPU traversal has no alpha test, and
+    /// its exact answers would disagree with the CPU tracer's, which cuts the masks out.
     pub fn new(ctx: &GpuContext, frame: &SceneFrame, timer: &mut GpuTimer) -> Result<Self, GpuError> {
+        if let Some(m) = frame.scene.materials.iter().find(|m| m.alpha_mask.is_some()) {
+            return Err(GpuError::AlphaMask(m.name.clone()));
+        }
         let (tris, ids) = gather(frame);
         Self::from_flat(ctx, build(tris, ids)?, timer)
     }

@@ -68,7 +68,7 @@ impl Focus {
     }
 
     /// The triangles of `triangles` (those the focus was computed from) inside the focus.
-    pub fn inside(&self, triangles: &[[Vec3; 3]]) -> Vec<[Vec3; 3]> {
+    pub fn inside<T: Copy>(&self, triangles: &[T]) -> Vec<T> {
         triangles.iter().enumerate().filter(|(i, _)| self.supporting.binary_search(i).is_err()).map(|(_, t)| *t).collect()
     }
 

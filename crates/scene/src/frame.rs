@@ -152,6 +152,16 @@ impl Scene {
 impl SceneFrame<'_> {
     /// Every triangle of every instance in world space, instance by instance (the input of the
     /// voxelizers and shadow-map baselines, which do not need triangle ids).
+    /// Each of [`SceneFrame::world_triangles`]' triangles' (instance, triangle), in its order.
+    pub fn world_triangle_ids(&self) -> Vec<(u32, u32)> {
+        let scene = self.scene;
+        let mut out = Vec::with_capacity(scene.triangle_count());
+        for (ii, inst) in scene.instances.iter().enumerate() {
+            out.extend((0..scene.meshes[inst.mesh as usize].indices.len() as u32).map(|t| (ii as u32, t)));
+        }
+        out
+    }
+
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
         let scene = self.scene;
         let mut out = Vec::with_capacity(scene.triangle_count());

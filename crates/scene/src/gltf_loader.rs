@@ -42,7 +42,7 @@
 //!   vertex indices and NaN are left to [`crate::validate`].
 
 use crate::obj_loader::guard;
-use crate::{Camera, Instance, Light, Material, MaterialModel, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
+use crate::{AlphaMask, Camera, Instance, Light, Material, MaterialModel, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
 use glimpse_core::{Image, Mat4, Quat, Vec2, Vec3, Vec4};
@@ -118,6 +118,8 @@ struct Loader<'a> {
     textures: HashMap<usize, Option<u32>>,
     /// Image index → its raw channel means (data textures), read once.
     data_means: HashMap<usize, Option<Vec3>>,
+    /// Per glTF image: its alpha channel as a coverage texture (`None`: it has none).
+    coverages: HashMap<usize, Option<u32>>,
     /// Ignored features → how often, reported as one warning each.
     ignored: BTreeMap<&'static str, usize>,
 }
@@ -206,6 +208,7 @@ impl<'a> Loader<'a> {
             materials: HashMap::new(),
             textures: HashMap::new(),
             data_means: HashMap::new(),
+            coverages: HashMap::new(),
             ignored: BTreeMap::new(),
         };
         Ok((doc, loader))
@@ -595,8 +598,18 @@ impl<'a> Loader<'a> {
             if m.normal_texture().is_some() || m.occlusion_texture().is_some() {
                 self.ignore("normal and occlusion textures");
             }
-            if m.alpha_mode() != gltf::material::AlphaMode::Opaque {
-                self.ignore("alpha modes BLEND and MASK (drawn opaque)");
+            match m.alpha_mode() {
+                gltf::material::AlphaMode::Opaque => {}
+                gltf::material::AlphaMode::Mask => {
+                    let texture = match pbr.base_color_texture() {
+                        Some(info) => self.coverage(info.texture().source())?,
+                        None => None,
+                    };
+                    let (factor, cutoff) = (pbr.base_color_factor()[3], m.alpha_cutoff().unwrap_or(0.5));
+                    mat.alpha_mask = Some(AlphaMask { texture, factor, cutoff });
+                    self.ignore("alpha mode MASK in the approximate techniques (the references cut it out; grids and maps built from the triangles draw it opaque)");
+                }
+                gltf::material::AlphaMode::Blend => self.ignore("alpha mode BLEND (drawn opaque)"),
             }
         }
         let id = self.scene.add_material(mat);
@@ -637,6 +650,24 @@ impl<'a> Loader<'a> {
             None => None,
         };
         self.textures.insert(index, id);
+        Ok(id)
+    }
+
+    /// An image's alpha channel as a coverage texture (once; linear, in every channel); `None`
+    /// where it has no alpha channel (coverage 1) or cannot be read (a warning).
+    fn coverage(&mut self, image: gltf::Image) -> Result<Option<u32>, SceneError> {
+        let index = image.index();
+        if let Some(&id) = self.coverages.get(&index) {
+            return Ok(id);
+        }
+        let id = match self.image_data(image)? {
+            Some(data) => alpha_image(&data).map(|img| {
+                self.scene.textures.push(img);
+                self.scene.textures.len() as u32 - 1
+            }),
+            None => None,
+        };
+        self.coverages.insert(index, id);
         Ok(id)
     }
 
@@ -841,6 +872,18 @@ fn linear_image(data: &gltf::image::Data) -> Option<Image> {
         let p = (y as usize * w + x as usize) * channels;
         // One or two channels are grey (+ alpha).
         if channels < 3 { Vec3::splat(channel(p)) } else { Vec3::new(channel(p), channel(p + 1), channel(p + 2)) }
+    }))
+}
+
+/// The alpha channel (the last of two or four; linear in glTF) as a grey image; `None` without one.
+fn alpha_image(data: &gltf::image::Data) -> Option<Image> {
+    let (channels, bytes) = checked_layout(data)?;
+    if channels % 2 == 1 {
+        return None;
+    }
+    let w = data.width as usize;
+    Some(Image::from_fn(data.width, data.height, |x, y| {
+        Vec3::splat(raw_channel(data, bytes, (y as usize * w + x as usize) * channels + channels - 1))
     }))
 }
 

@@ -10,6 +10,7 @@ pub mod animation;
 pub mod auto;
 pub mod builtin;
 pub mod camera;
+pub mod cutouts;
 pub mod environment;
 pub mod error;
 pub mod film;
@@ -30,12 +31,13 @@ pub mod validate;
 
 pub use animation::{Deformation, Motion, Transform, TransformKey};
 pub use camera::{Camera, FovAxis};
+pub use cutouts::Cutouts;
 pub use environment::{BrightPart, Environment, SphereGrid};
 pub use error::SceneError;
 pub use film::{Film, Filter};
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
 pub use light::{Light, LightKind};
-pub use model::{Instance, Material, MaterialModel, Mesh, Scene};
+pub use model::{AlphaMask, Instance, Material, MaterialModel, Mesh, Scene};
 pub use overrides::SceneOverrides;
 pub use render_hints::RenderHints;
 

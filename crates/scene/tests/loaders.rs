@@ -870,6 +870,50 @@ fn gltf_glass_and_unread_extensions() {
     assert!(scene.warnings.iter().any(|w| w.contains("roughness of transmitting materials")), "{:?}", scene.warnings);
 }
 
+/// glTF's alpha mode MASK: the base colour texture's alpha channel (raw, not sRGB-decoded)
+/// times the factor's alpha, against `alphaCutoff`, makes holes ([`Scene::cut_out`]); a texture
+/// without alpha leaves the factor alone; BLEND is drawn opaque with a warning.
+#[test]
+fn gltf_alpha_mask_reads_the_coverage() {
+    let dir = scratch("gltf_alpha_mask");
+    // 2 × 1 RGBA: alpha 51 (0.2) on the left, 255 on the right.
+    let rgba = image::RgbaImage::from_raw(2, 1, vec![200, 100, 50, 51, 200, 100, 50, 255]).unwrap();
+    let mut png = std::io::Cursor::new(Vec::new());
+    rgba.write_to(&mut png, image::ImageFormat::Png).unwrap();
+    let rgba_uri = format!("data:image/png;base64,{}", base64(png.get_ref()));
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let base = gltf_json(Some(&uri));
+    let with = |mode: &str, image: Option<&str>| {
+        let mut json = base.replace(r#""baseColorFactor": [0.5, 0.6, 0.7, 1]"#, r#""baseColorFactor": [0.5, 0.6, 0.7, 0.8]"#);
+        json = json.replace(r#""name": "glow","#, &format!(r#""name": "glow", "alphaMode": "{mode}", "alphaCutoff": 0.3,"#));
+        if let Some(image) = image {
+            let old = json.split(r#""images": [{"uri": ""#).nth(1).unwrap().split('"').next().unwrap().to_owned();
+            json = json.replace(&old, image);
+        }
+        assert!(json.contains(mode) && json.contains("0.8]"));
+        load(&write(&dir, &format!("{mode}.gltf"), json)).unwrap()
+    };
+    let scene = with("MASK", Some(&rgba_uri));
+    let mid = scene.meshes[0].material;
+    let mask = scene.materials[mid as usize].alpha_mask.expect("a MASK material has a mask");
+    println!("mask {mask:?}\nwarnings {:?}", scene.warnings);
+    assert_eq!((mask.factor, mask.cutoff), (0.8, 0.3));
+    let coverage = &scene.textures[mask.texture.expect("the texture's alpha") as usize];
+    assert!((coverage.pixels[0].x - 0.2).abs() < 1e-6 && coverage.pixels[1].x == 1.0, "{:?}", coverage.pixels);
+    // u = 0.25: the left texel (0.8 × 0.2 < 0.3); 0.75: the right; 0.9: between them (0.61).
+    let cut = |u: f32| scene.cut_out(mid, Vec2::new(u, 0.5));
+    assert!(cut(0.25) && !cut(0.75) && !cut(0.9));
+    assert!(scene.warnings.iter().any(|w| w.contains("alpha mode MASK")), "{:?}", scene.warnings);
+    // The test's own texture is RGB: the factor alone (0.8 ≥ 0.3), no coverage texture.
+    let scene = with("MASK", None);
+    let mask = scene.materials[scene.meshes[0].material as usize].alpha_mask.unwrap();
+    assert_eq!(mask.texture, None);
+    assert!(!scene.cut_out(scene.meshes[0].material, Vec2::new(0.25, 0.5)));
+    let scene = with("BLEND", Some(&rgba_uri));
+    assert!(scene.materials.iter().all(|m| m.alpha_mask.is_none()));
+    assert!(scene.warnings.iter().any(|w| w.contains("alpha mode BLEND (drawn opaque)")), "{:?}", scene.warnings);
+}
+
 /// A metallic-roughness texture's mean (raw, not sRGB-decoded; G roughness, B metallic) scales
 /// the factors: real assets leave the factors at 1 and put the values in the texture, which
 /// read alone would make every such material a fully rough metal.

@@ -10,8 +10,9 @@ use crate::bvh::{BuildParams, Bvh, Bvh4, Bvh4Node, WIDTH};
 use crate::triangle::PreparedRay;
 use glimpse_core::glam::Affine3A;
 use glimpse_core::{Aabb, Ray, Vec3, Vec3A, Vec4};
-use glimpse_scene::SceneFrame;
+use glimpse_scene::{Cutouts, SceneFrame};
 use std::mem::MaybeUninit;
+use std::sync::Arc;
 
 /// A ray's closest intersection: the parameter `t` along the ray, barycentrics of vertices 1
 /// and 2, and which instance and triangle (index into the mesh's `indices`) were hit.
@@ -94,6 +95,10 @@ pub struct ExactTracer {
     tlas_wide: Bvh4,
     /// Per mesh: its object-space BLAS, when some instance of it moves or it deforms.
     mesh_blas: Vec<Option<u32>>,
+    /// The alpha-masked instances' coverage; `None` in a scene without masks (no cost there).
+    /// A triangle hit in a hole is not a hit, for closest and any-hit queries alike (pbrt's and
+    /// Mitsuba's alpha test), so every reference sees through a leaf's cut-out texels.
+    cutouts: Option<Arc<Cutouts>>,
 }
 
 impl ExactTracer {
@@ -130,7 +135,8 @@ impl ExactTracer {
                 blases.push(Blas::build(tris, ids));
             }
         }
-        let mut tracer = ExactTracer { blases, entries: Vec::new(), tlas: Bvh::default(), tlas_wide: Bvh4::default(), mesh_blas };
+        let cutouts = Cutouts::new(scene).map(Arc::new);
+        let mut tracer = ExactTracer { blases, entries: Vec::new(), tlas: Bvh::default(), tlas_wide: Bvh4::default(), mesh_blas, cutouts };
         tracer.rebuild_tlas(frame);
         tracer
     }
@@ -224,11 +230,15 @@ impl ExactTracer {
         let blas = &self.blases[e.blas as usize];
         let Some(triangle) = blas.triangles.get(b.slot as usize) else { return false };
         let local = self.local_ray(e, ray, world);
-        match local.major_axis() {
-            0 => local.intersect_along::<0>(triangle, t_max).is_some(),
-            1 => local.intersect_along::<1>(triangle, t_max).is_some(),
-            _ => local.intersect_along::<2>(triangle, t_max).is_some(),
-        }
+        let hit = match local.major_axis() {
+            0 => local.intersect_along::<0>(triangle, t_max),
+            1 => local.intersect_along::<1>(triangle, t_max),
+            _ => local.intersect_along::<2>(triangle, t_max),
+        };
+        let Some((_, b1, b2)) = hit else { return false };
+        let id = blas.ids[b.slot as usize];
+        let instance = if id.instance == FROM_ENTRY { e.instance } else { id.instance };
+        !self.cutouts.as_ref().is_some_and(|c| c.hole(instance, id.triangle, b1, b2))
     }
 
     fn trace<const ANY: bool>(&self, ray: &Ray, t_max: f32) -> Option<Found> {
@@ -285,11 +295,12 @@ impl ExactTracer {
         let blas = &self.blases[e.blas as usize];
         let local = self.local_ray(e, ray, world);
         let ids = (index, e.instance);
+        let cut = self.cutouts.as_deref();
         // The triangle test's copy for the ray's major axis, chosen once per ray.
         match local.major_axis() {
-            0 => trace_blas::<ANY, 0>(blas, ids, &local, t_max, best),
-            1 => trace_blas::<ANY, 1>(blas, ids, &local, t_max, best),
-            _ => trace_blas::<ANY, 2>(blas, ids, &local, t_max, best),
+            0 => trace_blas::<ANY, 0>(blas, ids, cut, &local, t_max, best),
+            1 => trace_blas::<ANY, 1>(blas, ids, cut, &local, t_max, best),
+            _ => trace_blas::<ANY, 2>(blas, ids, cut, &local, t_max, best),
         }
     }
 }
@@ -316,11 +327,13 @@ pub struct ShadowCache(Option<Blocker>);
 
 /// Traces `ray` (whose major axis is `KZ`) through one BLAS, updating `best` and `t_max`; true
 /// when an any-hit query is answered. `(entry, instance)`: the TLAS entry's number, and the
-/// instance that stands in for ids marked [`FROM_ENTRY`].
+/// instance that stands in for ids marked [`FROM_ENTRY`]; a hit in one of `cut`'s holes is
+/// passed through.
 #[inline(always)]
 fn trace_blas<const ANY: bool, const KZ: usize>(
     blas: &Blas,
     (entry, instance): (u32, u32),
+    cut: Option<&Cutouts>,
     ray: &PreparedRay,
     t_max: &mut f32,
     best: &mut Option<Found>,
@@ -332,6 +345,9 @@ fn trace_blas<const ANY: bool, const KZ: usize>(
             if let Some((t, b1, b2)) = ray.intersect_along::<KZ>(&blas.triangles[i], *t_max) {
                 let id = blas.ids[i];
                 let instance = if id.instance == FROM_ENTRY { instance } else { id.instance };
+                if cut.is_some_and(|c| c.hole(instance, id.triangle, b1, b2)) {
+                    continue;
+                }
                 *t_max = t;
                 let hit = Hit { t, b1, b2, instance, triangle: id.triangle };
                 *best = Some(Found { hit, blocker: Blocker { entry, slot: i as u32 } });
