@@ -24,6 +24,19 @@ fn a_scene_too_large_for_the_binding_limit_is_an_error() {
     small.check().unwrap();
 }
 
+/// The GPU traversal has no alpha test: a scene with a glTF MASK material is refused with the
+/// material's name, never traced as if opaque (the CPU references cut it out).
+#[test]
+fn an_alpha_masked_scene_is_refused() {
+    let Some(ctx) = context("alpha mask") else { return };
+    let mut scene = glimpse_scene::load("cornell").unwrap();
+    let mask = glimpse_scene::AlphaMask { texture: None, factor: 0.3, cutoff: 0.5 };
+    scene.materials[0].alpha_mask = Some(mask);
+    let e = GpuScene::new(&ctx, &scene.at(0.0), &mut GpuTimer::new(&ctx, 1)).err().expect("a masked scene was uploaded");
+    println!("{e}");
+    assert!(matches!(&e, GpuError::AlphaMask(name) if *name == scene.materials[0].name), "{e}");
+}
+
 #[test]
 fn a_wgsl_error_is_returned_with_the_compilers_message() {
     let Some(ctx) = context("shader error") else { return };
