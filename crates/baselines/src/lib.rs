@@ -118,7 +118,7 @@ impl DfScene {
     /// [`DfScene::build`] with the focus from `cache` (a technique's, kept across its frames).
     pub fn build_cached(frame: &SceneFrame, params: &DfParams, cache: &mut FocusCache, seed: u64, frame_index: u32) -> DfScene {
         let sw = Stopwatch::start();
-        let all = frame.world_triangles();
+        let all = frame.occluding_triangles();
         let gathered_ms = sw.ms();
         let focus = if params.focus { cache.for_all_rays(frame, &all) } else { None };
         // Gathering the triangles and splitting them count as the BOM's, as ROMA's.

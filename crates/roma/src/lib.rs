@@ -386,7 +386,7 @@ impl Roma {
     /// [`Roma::build`] with the focus from `cache` (a technique's, kept across its frames).
     pub fn build_cached(frame: &SceneFrame, params: &RomaParams, cache: &mut FocusCache, seed: u64, frame_index: u32) -> Roma {
         let sw = Stopwatch::start();
-        let triangles = frame.world_triangles();
+        let triangles = frame.occluding_triangles();
         let gather_ms = sw.ms();
         let sw = Stopwatch::start();
         let focus = if params.focus { cache.for_all_rays(frame, &triangles) } else { None };
