@@ -338,7 +338,7 @@ mod gpu_rows {
             "gpu-roma" => {
                 let mut roma = glimpse_roma::gpu::GpuRoma::new(ctx)?;
                 let params = glimpse_roma::RomaParams::default();
-                roma.build(ctx, &frame.world_triangles(), frame.bounds, &params, 0, 0, &mut GpuTimer::new(ctx, 2))?;
+                roma.build(ctx, &frame.occluding_triangles(), frame.bounds, &params, 0, 0, &mut GpuTimer::new(ctx, 2))?;
                 let build_ms = sw.ms();
                 roma.occluded(ctx, warm)?;
                 let sw = Stopwatch::start();

@@ -229,7 +229,7 @@ impl GpuRoma {
         frame_index: u32,
         timer: &mut GpuTimer,
     ) -> Result<(), GpuError> {
-        let triangles = frame.world_triangles();
+        let triangles = frame.occluding_triangles();
         let focus = if params.focus { self.focus.for_all_rays(frame, &triangles) } else { None };
         let Some(focus) = focus else {
             return self.build(ctx, &triangles, frame.bounds, params, seed, frame_index, timer);
@@ -547,7 +547,7 @@ pub struct BenchRow {
 /// answers `rays` with both (`occluded_ray`: snapped, offset origin).
 pub fn bench(ctx: &GpuContext, frame: &glimpse_scene::SceneFrame, rays: &[(Ray, f32)], seed: u64) -> Result<BenchRow, GpuError> {
     let params = RomaParams::default();
-    let triangles = frame.world_triangles();
+    let triangles = frame.occluding_triangles();
     let mut gpu = GpuRoma::new(ctx)?;
     // Untimed builds and queries of the whole batch first: pipelines, buffers and the GPU's
     // clocks warm up outside the measurement.
