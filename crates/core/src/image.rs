@@ -104,6 +104,33 @@ impl Image {
 
     /// Reads an `.exr`, `.hdr` or `.png` (sRGB-decoded to linear) file.
     pub fn read(path: &Path) -> Result<Image, ImageError> {
+        let (dynamic, ext) = Self::decode(path)?;
+        let srgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg");
+        let rgb = dynamic.into_rgb32f();
+        let (width, height) = rgb.dimensions();
+        let pixels = rgb
+            .pixels()
+            .map(|p| {
+                let c = Vec3::new(p.0[0], p.0[1], p.0[2]);
+                if srgb { Vec3::new(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z)) } else { c }
+            })
+            .collect();
+        Ok(Image { width, height, pixels })
+    }
+
+    /// Reads a coverage (alpha) texture: the file's alpha channel where it has one, else its
+    /// first channel, raw (data, not sRGB-decoded), in every channel of the result.
+    pub fn read_coverage(path: &Path) -> Result<Image, ImageError> {
+        let (dynamic, _) = Self::decode(path)?;
+        let alpha = dynamic.color().has_alpha();
+        let rgba = dynamic.into_rgba32f();
+        let (width, height) = rgba.dimensions();
+        let pixels = rgba.pixels().map(|p| Vec3::splat(if alpha { p.0[3] } else { p.0[0] })).collect();
+        Ok(Image { width, height, pixels })
+    }
+
+    /// The decoded file (checked: extension, size, EXR headers, non-empty) and its extension.
+    fn decode(path: &Path) -> Result<(::image::DynamicImage, String), ImageError> {
         let io = |message: String| ImageError::Io { path: path.to_owned(), message };
         let ext = extension(path);
         if !matches!(ext.as_str(), "exr" | "hdr" | "png" | "jpg" | "jpeg") {
@@ -124,20 +151,10 @@ impl Image {
                 .map_err(|e| e.to_string())
         });
         let dynamic = decoded.map_err(|m| io(format!("the image decoder failed on this file (internal panic: {m})")))?.map_err(io)?;
-        let srgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg");
-        let rgb = dynamic.into_rgb32f();
-        let (width, height) = rgb.dimensions();
-        if width == 0 || height == 0 {
+        if dynamic.width() == 0 || dynamic.height() == 0 {
             return Err(ImageError::Empty { path: path.to_owned() });
         }
-        let pixels = rgb
-            .pixels()
-            .map(|p| {
-                let c = Vec3::new(p.0[0], p.0[1], p.0[2]);
-                if srgb { Vec3::new(srgb_decode(c.x), srgb_decode(c.y), srgb_decode(c.z)) } else { c }
-            })
-            .collect();
-        Ok(Image { width, height, pixels })
+        Ok((dynamic, ext))
     }
 
     /// Writes by extension: `.exr` (linear f32), `.hdr` (linear RGBE) or `.png` (tone-mapped).

@@ -12,13 +12,17 @@
 //!   carry `vn` gets none (warning), and consumers compute them.
 //! * Materials (MTL):
 //!   * `Kd` → `base_color` (absent: the default 0.8 grey); `Ke` → `emission`, read as radiance
-//!     in W/(m²·sr) (McGuire's Cornell box light: `Ke 17 12 4`). `Ka`, `Ks`, `Ni`, `d`, `illum`
-//!     are ignored. A colour with one number (`Kd 0.5`) means grey, as the MTL spec says.
+//!     in W/(m²·sr) (McGuire's Cornell box light: `Ke 17 12 4`). `Ka`, `Ks`, `Ni`, `illum`
+//!     are ignored (`d`: below). A colour with one number (`Kd 0.5`) means grey, as the MTL spec says.
 //!   * `map_Kd` → base-colour texture, the path relative to the `.mtl`; its `-s u v` (scale) and
 //!     `-o u v` (offset) options map the object's uvs as `uv · s + o` (in the file's uv space,
 //!     before v is flipped); other options (`-clamp`, `-bm`, …) are ignored with a warning; PNG/JPEG are sRGB-decoded to linear by
 //!     [`glimpse_core::Image::read`]. A texture that cannot be read is a warning, not an error:
 //!     the material keeps its `Kd`.
+//!   * `map_d` → a cut-out ([`crate::AlphaMask`], as glTF's alpha mode MASK with cutoff 0.5):
+//!     the texture's alpha channel, or its first channel where it has none, raw (coverage is
+//!     data, not colour; [`glimpse_core::Image::read_coverage`]), times `d` where given. A
+//!     `d` under 1 without `map_d` (translucency) stays opaque, with a warning.
 //!   * `Ns` → roughness with ONE mapping: Walter et al. 2007 (eq. 30) match a Phong lobe of
 //!     exponent `Ns` to a Beckmann lobe of width `α_b = sqrt(2 / (Ns + 2))`; we take GGX
 //!     `α = α_b`, and since our `roughness` is perceptual (`α = roughness²`),
@@ -34,7 +38,7 @@
 //!   its arithmetic), and so are MTL colours with a wrong count of numbers (which `tobj` would
 //!   panic on). NaN coordinates and degenerate triangles are left to [`crate::validate`].
 
-use crate::{Material, Mesh, Scene, SceneError};
+use crate::{AlphaMask, Material, Mesh, Scene, SceneError};
 use glimpse_core::bounded_read::{limit, read_bounded};
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use std::cell::RefCell;
@@ -271,6 +275,9 @@ fn load_mtl(path: &Path, problems: &RefCell<MtlProblems>) -> tobj::MTLLoadResult
                     m.diffuse_texture = Some(dir.join(texture_file_name(&tex)).to_string_lossy().into_owned());
                     m.unknown_param.insert(MAP_KD_STATEMENT.to_owned(), tex);
                 }
+                if let Some(tex) = m.dissolve_texture.clone() {
+                    m.dissolve_texture = Some(dir.join(texture_file_name(&tex)).to_string_lossy().into_owned());
+                }
             }
             Ok((materials, names))
         }
@@ -337,20 +344,31 @@ pub fn roughness_from_ns(ns: f32) -> f32 {
     (2.0 / (ns.max(0.0) + 2.0)).powf(0.25).clamp(0.0, 1.0)
 }
 
-/// Loads each texture file once into [`Scene::textures`]; a file that cannot be read is a
-/// warning naming it.
+/// Loads each texture file once into [`Scene::textures`] (once as colour, once as coverage);
+/// a file that cannot be read is a warning naming it.
 #[derive(Default)]
 pub(crate) struct TextureCache {
-    by_path: HashMap<PathBuf, Option<u32>>,
+    by_path: HashMap<(PathBuf, bool), Option<u32>>,
 }
 
 impl TextureCache {
     /// The texture's index in `scene.textures`, or `None` (with a warning) when it cannot be read.
     pub(crate) fn load(&mut self, path: &Path, scene: &mut Scene, referrer: &Path) -> Option<u32> {
-        if let Some(&id) = self.by_path.get(path) {
+        self.load_as(path, false, scene, referrer)
+    }
+
+    /// [`TextureCache::load`] of a coverage texture ([`Image::read_coverage`]).
+    pub(crate) fn load_coverage(&mut self, path: &Path, scene: &mut Scene, referrer: &Path) -> Option<u32> {
+        self.load_as(path, true, scene, referrer)
+    }
+
+    fn load_as(&mut self, path: &Path, coverage: bool, scene: &mut Scene, referrer: &Path) -> Option<u32> {
+        let key = (path.to_owned(), coverage);
+        if let Some(&id) = self.by_path.get(&key) {
             return id;
         }
-        let id = match Image::read(path) {
+        let read = if coverage { Image::read_coverage(path) } else { Image::read(path) };
+        let id = match read {
             Ok(img) => {
                 scene.textures.push(img);
                 Some(scene.textures.len() as u32 - 1)
@@ -360,7 +378,7 @@ impl TextureCache {
                 None
             }
         };
-        self.by_path.insert(path.to_owned(), id);
+        self.by_path.insert(key, id);
         id
     }
 }
@@ -407,6 +425,15 @@ fn convert_material(m: &tobj::Material, textures: &mut TextureCache, scene: &mut
     }
     if let Some(tex) = &m.diffuse_texture {
         mat.base_color_texture = textures.load(Path::new(tex), scene, obj);
+    }
+    let dissolve = m.dissolve.unwrap_or(1.0);
+    if let Some(tex) = &m.dissolve_texture {
+        // A coverage texture that cannot be read leaves the material opaque (a warning).
+        if let Some(texture) = textures.load_coverage(Path::new(tex), scene, obj) {
+            mat.alpha_mask = Some(AlphaMask { texture: Some(texture), factor: dissolve, cutoff: 0.5 });
+        }
+    } else if dissolve < 1.0 {
+        scene.warnings.push(format!("{}: material '{}': 'd {dissolve}' (translucency) is drawn opaque", obj.display(), m.name));
     }
     mat
 }

@@ -870,6 +870,43 @@ fn gltf_glass_and_unread_extensions() {
     assert!(scene.warnings.iter().any(|w| w.contains("roughness of transmitting materials")), "{:?}", scene.warnings);
 }
 
+/// MTL `map_d`: a cut-out from the texture's alpha channel, or its first channel raw where it
+/// has none, times `d`, at cutoff 0.5; `d` under 1 alone is translucency, drawn opaque with a
+/// warning.
+#[test]
+fn obj_map_d_is_a_cut_out() {
+    let dir = scratch("obj_map_d");
+    // Grey, no alpha: 0 on the left, 1 on the right (0 and 255 whatever the encoding).
+    Image::from_fn(2, 1, |x, _| Vec3::splat(x as f32)).write(&dir.join("grey.png"), ToneMap::default()).unwrap();
+    // RGBA: alpha 51 (0.2) on the left, 255 on the right, the colour channels the other way.
+    let rgba = image::RgbaImage::from_raw(2, 1, vec![255, 255, 255, 51, 0, 0, 0, 255]).unwrap();
+    rgba.save(dir.join("rgba.png")).unwrap();
+    write(
+        &dir,
+        "m.mtl",
+        "newmtl grey\nKd 0.5 0.5 0.5\nmap_d -clamp on grey.png\nnewmtl rgba\nKd 0.5 0.5 0.5\nd 0.9\nmap_d rgba.png\nnewmtl glass\nKd 1 1 1\nd 0.3\n"
+            .to_owned(),
+    );
+    let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
+               usemtl grey\nf 1/1 2/2 3/3\nusemtl rgba\nf 1/1 3/3 4/4\nusemtl glass\nf 2/2 3/3 4/4\n";
+    let scene = load(&write(&dir, "m.obj", obj.to_owned())).unwrap();
+    println!("warnings {:?}", scene.warnings);
+    let by_name = |n: &str| scene.materials.iter().position(|m| m.name == n).unwrap() as u32;
+    let (grey, rgba, glass) = (by_name("grey"), by_name("rgba"), by_name("glass"));
+    let mask = scene.materials[grey as usize].alpha_mask.expect("map_d makes a mask");
+    assert_eq!((mask.factor, mask.cutoff), (1.0, 0.5));
+    let mask = scene.materials[rgba as usize].alpha_mask.unwrap();
+    assert_eq!(mask.factor, 0.9, "d multiplies the texture");
+    let texels = &scene.textures[mask.texture.unwrap() as usize].pixels;
+    assert!((texels[0].x - 0.2).abs() < 1e-6 && texels[1].x == 1.0, "the alpha channel, raw: {texels:?}");
+    // u = 0.25 reads the left texel, 0.75 the right.
+    let cut = |m: u32, u: f32| scene.cut_out(m, Vec2::new(u, 0.5));
+    assert!(cut(grey, 0.25) && !cut(grey, 0.75));
+    assert!(cut(rgba, 0.25) && !cut(rgba, 0.75), "0.9 × 0.2 is under the cutoff, 0.9 × 1 over");
+    assert!(scene.materials[glass as usize].alpha_mask.is_none());
+    assert!(scene.warnings.iter().any(|w| w.contains("'d 0.3' (translucency) is drawn opaque")), "{:?}", scene.warnings);
+}
+
 /// glTF's alpha mode MASK: the base colour texture's alpha channel (raw, not sRGB-decoded)
 /// times the factor's alpha, against `alphaCutoff`, makes holes ([`Scene::cut_out`]); a texture
 /// without alpha leaves the factor alone; BLEND is drawn opaque with a warning.
