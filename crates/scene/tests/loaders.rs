@@ -884,12 +884,11 @@ fn obj_map_d_is_a_cut_out() {
     write(
         &dir,
         "m.mtl",
-        "newmtl grey\nKd 0.5 0.5 0.5\nmap_d -clamp on grey.png\nnewmtl rgba\nKd 0.5 0.5 0.5\nd 0.9\nmap_d rgba.png\nnewmtl glass\nKd 1 1 1\nd 0.3\n"
-            .to_owned(),
+        "newmtl grey\nKd 0.5 0.5 0.5\nmap_d -clamp on grey.png\nnewmtl rgba\nKd 0.5 0.5 0.5\nd 0.9\nmap_d rgba.png\nnewmtl glass\nKd 1 1 1\nd 0.3\n",
     );
     let obj = "mtllib m.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n\
                usemtl grey\nf 1/1 2/2 3/3\nusemtl rgba\nf 1/1 3/3 4/4\nusemtl glass\nf 2/2 3/3 4/4\n";
-    let scene = load(&write(&dir, "m.obj", obj.to_owned())).unwrap();
+    let scene = load(&write(&dir, "m.obj", obj)).unwrap();
     println!("warnings {:?}", scene.warnings);
     let by_name = |n: &str| scene.materials.iter().position(|m| m.name == n).unwrap() as u32;
     let (grey, rgba, glass) = (by_name("grey"), by_name("rgba"), by_name("glass"));
