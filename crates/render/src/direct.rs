@@ -145,7 +145,9 @@ pub struct AreaSample {
 /// Samples the area lights from the receiver `p` (geometric normal `n`, error scale `e`): an emissive triangle
 /// with probability ∝ power (`frame.emissive_distribution`), a uniform point on it, the area
 /// density turned into solid angle (pdf = P(tri) · d² / (area · cos θ_light)). `None` when the
-/// scene has no area light or the point is behind its one-sided emitter (zero contribution).
+/// scene has no area light, the point is behind its one-sided emitter, or it falls in the
+/// emitter's alpha-mask cut-out (zero contribution: the emitter is not there, and the density
+/// over the whole triangle stays unbiased).
 pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, e: f32, u_pick: f32, u: Vec2) -> Option<AreaSample> {
     let dist = frame.emissive_distribution.as_ref()?;
     let (idx, p_tri) = dist.sample_discrete(u_pick);
@@ -154,6 +156,10 @@ pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, e: f32, u_pick: f
     let to = x - p;
     let d2 = to.length_squared();
     if d2 <= 0.0 || p_tri <= 0.0 {
+        return None;
+    }
+    let b = glimpse_core::sampling::uniform_triangle(u);
+    if frame.cut_out_at(tri.instance, tri.triangle, b.x, b.y) {
         return None;
     }
     let wi = to / d2.sqrt();

@@ -175,14 +175,6 @@ impl SceneFrame<'_> {
                 out.push(t);
                 continue;
             }
-            let uv = |b1: f32, b2: f32| {
-                if mesh.uvs.is_empty() {
-                    Vec2::new(b1, b2)
-                } else {
-                    let [i0, i1, i2] = mesh.indices[triangle as usize].map(|i| mesh.uvs[i as usize]);
-                    i0 * (1.0 - b1 - b2) + i1 * b1 + i2 * b2
-                }
-            };
             let longest = (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
             let n = ((longest / max_edge).ceil() as usize).clamp(1, 64);
             let at = |i: usize, j: usize| {
@@ -191,7 +183,7 @@ impl SceneFrame<'_> {
             };
             // Point (c1, c2) of the n × n lattice of barycentrics is covered. A piece is kept
             // where its centre is: the pieces' boundary is the mask's, to within a piece.
-            let covered = |c1: f32, c2: f32| !scene.cut_out(mesh.material, uv(c1 / n as f32, c2 / n as f32));
+            let covered = |c1: f32, c2: f32| !self.cut_out_at(instance, triangle, c1 / n as f32, c2 / n as f32);
             let keep = |corners: [(f32, f32); 3]| {
                 let (c1, c2) = corners.iter().fold((0.0, 0.0), |a, c| (a.0 + c.0 / 3.0, a.1 + c.1 / 3.0));
                 covered(c1, c2)
@@ -210,6 +202,23 @@ impl SceneFrame<'_> {
             }
         }
         out
+    }
+
+    /// Whether the point at barycentrics (`b1`, `b2`) of `triangle` of `instance` is cut out
+    /// ([`crate::AlphaMask`]; false at once for a material without a mask).
+    pub fn cut_out_at(&self, instance: u32, triangle: u32, b1: f32, b2: f32) -> bool {
+        let scene = self.scene;
+        let mesh = &scene.meshes[scene.instances[instance as usize].mesh as usize];
+        if scene.materials[mesh.material as usize].alpha_mask.is_none() {
+            return false;
+        }
+        let uv = if mesh.uvs.is_empty() {
+            Vec2::new(b1, b2)
+        } else {
+            let [u0, u1, u2] = mesh.indices[triangle as usize].map(|i| mesh.uvs[i as usize]);
+            u0 * (1.0 - b1 - b2) + u1 * b1 + u2 * b2
+        };
+        scene.cut_out(mesh.material, uv)
     }
 
     /// Each of [`SceneFrame::world_triangles`]' triangles' (instance, triangle), in its order.
