@@ -150,13 +150,12 @@ impl Scene {
 }
 
 impl SceneFrame<'_> {
-    /// Every triangle of every instance in world space, instance by instance (the input of the
-    /// voxelizers and shadow-map baselines, which do not need triangle ids).
     /// [`SceneFrame::world_triangles`] for structures voxelized or rasterized from the
     /// triangles (grids, arrays), with each alpha-masked triangle ([`crate::AlphaMask`])
     /// replaced by the pieces of its regular subdivision whose centres are covered: pieces at
     /// most 1/512 of the scene's diagonal long (under half a cell of a 128³ grid around the
-    /// scene), at most 64 × 64 per triangle. A grid built from them has the mask's holes,
+    /// scene), at most 64 × 64 per triangle, and coarser where there would be over 2M in all
+    /// (about twice the suite's largest scene). A grid built from them has the mask's holes,
     /// closed where a hole is under about a cell. The same list as `world_triangles` in a scene
     /// without masks. For conservative voxelizations (ROMA's and the distance field's): a
     /// voxelization that samples cell centres (the voxel array's) misses pieces under a cell.
@@ -166,17 +165,36 @@ impl SceneFrame<'_> {
         if !scene.has_alpha_masks() {
             return world;
         }
-        let max_edge = self.bounds.extent().length() / 512.0;
         let ids = self.world_triangle_ids();
-        let mut out = Vec::with_capacity(world.len());
-        for (t, (instance, triangle)) in world.into_iter().zip(ids) {
+        let masked = |instance: u32| {
             let mesh = &scene.meshes[scene.instances[instance as usize].mesh as usize];
-            if scene.materials[mesh.material as usize].alpha_mask.is_none() {
+            scene.materials[mesh.material as usize].alpha_mask.is_some()
+        };
+        let longest = |t: &[Vec3; 3]| (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
+        // Pieces under 1/512 of the diagonal, coarser where that would pass MAX_PIECES (2M) in all
+        // (a scene of many large masked triangles would otherwise take gigabytes).
+        const MAX_PIECES: f64 = 2e6;
+        let pieces = |max_edge: f32| -> f64 {
+            world
+                .iter()
+                .zip(&ids)
+                .filter(|(_, id)| masked(id.0))
+                .map(|(t, _)| ((longest(t) / max_edge).ceil().clamp(1.0, 64.0) as f64).powi(2))
+                .sum()
+        };
+        // Never fewer than one piece per masked triangle (each whole).
+        let floor = ids.iter().filter(|id| masked(id.0)).count() as f64;
+        let mut max_edge = self.bounds.extent().length() / 512.0;
+        while pieces(max_edge) > MAX_PIECES.max(floor) {
+            max_edge *= 1.5;
+        }
+        let mut out = Vec::with_capacity(world.len());
+        for (t, (instance, triangle)) in world.iter().copied().zip(ids) {
+            if !masked(instance) {
                 out.push(t);
                 continue;
             }
-            let longest = (t[1] - t[0]).length().max((t[2] - t[1]).length()).max((t[0] - t[2]).length());
-            let n = ((longest / max_edge).ceil() as usize).clamp(1, 64);
+            let n = ((longest(&t) / max_edge).ceil() as usize).clamp(1, 64);
             let at = |i: usize, j: usize| {
                 let (b1, b2) = (i as f32 / n as f32, j as f32 / n as f32);
                 t[0] * (1.0 - b1 - b2) + t[1] * b1 + t[2] * b2
@@ -231,6 +249,8 @@ impl SceneFrame<'_> {
         out
     }
 
+    /// Every triangle of every instance in world space, instance by instance (the input of the
+    /// voxelizers and shadow-map baselines, which do not need triangle ids).
     pub fn world_triangles(&self) -> Vec<[Vec3; 3]> {
         let scene = self.scene;
         let mut out = Vec::with_capacity(scene.triangle_count());

@@ -36,3 +36,20 @@ fn occluding_triangles_keep_the_covered_part() {
     s.materials[leaf as usize].alpha_mask = None;
     assert_eq!(s.at(0.0).occluding_triangles(), s.at(0.0).world_triangles());
 }
+
+/// Many large masked triangles are cut into coarser pieces, never more than about 2M in all.
+#[test]
+fn occluding_triangles_are_bounded() {
+    let mut s = Scene::default();
+    let mask = AlphaMask { texture: None, factor: 1.0, cutoff: 0.5 };
+    let leaf = s.add_material(Material { alpha_mask: Some(mask), ..Material::diffuse("leaf", Vec3::ONE) });
+    // 3,000 quads of 1 m in a 2 m cube: 64 × 64 pieces each would be 24.6M.
+    let quad =
+        Mesh::quad("leaf", leaf, [Vec3::new(0.0, 0.0, 0.0), Vec3::new(1.0, 0.0, 0.0), Vec3::new(1.0, 1.0, 0.0), Vec3::new(0.0, 1.0, 0.0)]);
+    for k in 0..3000 {
+        s.add_mesh(quad.clone(), Mat4::from_translation(Vec3::new(0.0, 0.0, k as f32 / 3000.0)));
+    }
+    let n = s.at(0.0).occluding_triangles().len();
+    println!("6,000 masked triangles (coverage 1 everywhere) → {n} pieces");
+    assert!((6000..=2_000_000).contains(&n), "{n} pieces");
+}
