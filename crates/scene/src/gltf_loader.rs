@@ -607,7 +607,7 @@ impl<'a> Loader<'a> {
                     };
                     let (factor, cutoff) = (pbr.base_color_factor()[3], m.alpha_cutoff().unwrap_or(0.5));
                     mat.alpha_mask = Some(AlphaMask { texture, factor, cutoff });
-                    self.ignore("alpha mode MASK in the approximate techniques (the references cut it out; grids and maps built from the triangles draw it opaque)");
+                    self.ignore("alpha mode MASK in the voxel array's own grid and on the GPU (the references, shadow maps, ROMA and the distance field cut it out)");
                 }
                 gltf::material::AlphaMode::Blend => self.ignore("alpha mode BLEND (drawn opaque)"),
             }

@@ -53,3 +53,17 @@ fn occluding_triangles_are_bounded() {
     println!("6,000 masked triangles (coverage 1 everywhere) → {n} pieces");
     assert!((6000..=2_000_000).contains(&n), "{n} pieces");
 }
+
+/// `scenes/extra/leaf-cards`' glTF loads with its coverage texture (embedded: the repository
+/// ignores *.png, and a file left behind made every card opaque on a fresh clone).
+#[test]
+fn the_leaf_cards_load_with_their_coverage() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../../scenes/extra/leaf-cards/cards.gltf");
+    let scene = glimpse_scene::load(path.to_str().unwrap()).unwrap();
+    let mask = scene.materials.iter().find_map(|m| m.alpha_mask).expect("the leaf material is masked");
+    let coverage = &scene.textures[mask.texture.expect("its texture's alpha") as usize];
+    let open = coverage.pixels.iter().filter(|p| p.x < mask.cutoff).count() as f64 / coverage.pixels.len() as f64;
+    println!("{} triangles, {:.3} of the texture cut out; warnings {:?}", scene.triangle_count(), open, scene.warnings);
+    assert!((0.4..0.5).contains(&open), "{open}");
+    assert!(!scene.warnings.iter().any(|w| w.contains("not loaded")), "{:?}", scene.warnings);
+}

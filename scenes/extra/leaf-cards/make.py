@@ -1,8 +1,9 @@
-"""Writes leaf.png (an RGBA leaf with a cut-out outline) and cards.gltf (60 leaf cards, one
-alpha-masked double-sided material) for scenes/extra/leaf-cards.toml. Deterministic (seed 7).
+"""Writes cards.gltf: 60 leaf cards, one alpha-masked double-sided material, and its RGBA leaf
+texture with a cut-out outline embedded as a data URI (the repository ignores *.png), for
+scenes/extra/leaf-cards.toml. Deterministic (seed 7).
 
 Run from this folder: python3 make.py   (needs numpy and Pillow)"""
-import base64, json, struct
+import base64, io, json
 import numpy as np
 from PIL import Image
 
@@ -14,7 +15,8 @@ half = 0.42 * np.sin(np.pi * v) ** 0.8
 inside = (np.abs(u - 0.5) < half) & ~((np.abs(u - 0.5) < 0.012) & (v > 0.15))
 green = np.stack([0.18 + 0.1 * v, 0.45 + 0.2 * (1 - v), 0.12 + 0 * v], -1)
 rgba = np.concatenate([green, inside[..., None].astype(float)], -1)
-Image.fromarray((rgba * 255).round().astype(np.uint8), "RGBA").save("leaf.png")
+png = io.BytesIO()
+Image.fromarray((rgba * 255).round().astype(np.uint8), "RGBA").save(png, format="PNG")
 
 rng = np.random.default_rng(7)
 positions, uvs, indices = [], [], []
@@ -45,7 +47,7 @@ gltf = {
                                  "metallicFactor": 0.0, "roughnessFactor": 0.7},
     }],
     "textures": [{"source": 0}],
-    "images": [{"uri": "leaf.png"}],
+    "images": [{"uri": "data:image/png;base64," + base64.b64encode(png.getvalue()).decode()}],
     "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
     "bufferViews": [
         {"buffer": 0, "byteOffset": 0, "byteLength": n * 12},
