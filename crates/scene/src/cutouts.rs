@@ -66,10 +66,6 @@ impl Cutouts {
         };
         let [u0, u1, u2] = m.uvs[triangle as usize];
         let uv = u0 * (1.0 - b1 - b2) + u1 * b1 + u2 * b2;
-        let coverage = match &m.texture {
-            Some(t) => m.mask.factor * t.sample_repeat(uv.x, uv.y).x,
-            None => m.mask.factor,
-        };
-        coverage < m.mask.cutoff
+        m.mask.cuts(m.texture.as_deref(), uv)
     }
 }

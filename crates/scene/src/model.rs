@@ -116,6 +116,19 @@ pub struct AlphaMask {
     pub cutoff: f32,
 }
 
+impl AlphaMask {
+    /// Whether the surface is a hole at `uv`, `texture` being the one [`AlphaMask::texture`]
+    /// names (the one place the coverage rule is written).
+    #[inline]
+    pub fn cuts(&self, texture: Option<&Image>, uv: Vec2) -> bool {
+        let coverage = match texture {
+            Some(t) => self.factor * t.sample_repeat(uv.x, uv.y).x,
+            None => self.factor,
+        };
+        coverage < self.cutoff
+    }
+}
+
 impl Default for Material {
     fn default() -> Self {
         Self {
@@ -234,11 +247,7 @@ impl Scene {
     /// Whether the surface of `material` is a hole at `uv` ([`AlphaMask`]).
     pub fn cut_out(&self, material: u32, uv: Vec2) -> bool {
         let Some(mask) = self.materials[material as usize].alpha_mask else { return false };
-        let coverage = match mask.texture {
-            Some(t) => mask.factor * self.textures[t as usize].sample_repeat(uv.x, uv.y).x,
-            None => mask.factor,
-        };
-        coverage < mask.cutoff
+        mask.cuts(mask.texture.map(|t| &self.textures[t as usize]), uv)
     }
 
     /// Whether some material is cut out ([`AlphaMask`]).
