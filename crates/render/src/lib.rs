@@ -32,8 +32,10 @@ pub use technique::{Need, RenderError, Settings, Technique, require};
 /// Bump it with any change that moves a reference's pixels: 2 = ray offsets relative to each
 /// point's error scale (session 10); 3 = VPLs' own error scales at their shadow rays' end;
 /// 4 = mirrored instances keep their faces' orientation (`glimpse_scene::orient`, session 25);
-/// 5 = glTF alpha masks cut out by the exact tracer (session 28).
-pub const RESULTS_REVISION: u32 = 5;
+/// 5 = glTF alpha masks cut out by the exact tracer (session 28); 6 = glTF metallic-roughness
+/// textures read per texel by the path tracer, and normal textures bending the shading normal
+/// (session 29).
+pub const RESULTS_REVISION: u32 = 6;
 
 /// Where glimpse keeps data that is slow to compute (reference images, precomputations):
 /// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`. `GLIMPSE_CACHE`

@@ -71,14 +71,15 @@ pub struct PathVertex {
 impl PathVertex {
     pub fn of(frame: &SceneFrame, sp: &SurfacePoint) -> Self {
         let m = &frame.scene.materials[sp.material as usize];
+        let (metallic, roughness) = frame.scene.metallic_roughness(sp.material, sp.uv);
         Self {
             position: sp.position,
             error_scale: sp.error_scale,
             normal: sp.normal,
             shading_normal: sp.shading_normal,
             base: sp.base_color(frame),
-            metallic: m.metallic,
-            roughness: m.roughness,
+            metallic,
+            roughness,
             clearcoat: m.clearcoat,
             model: m.model,
             front_face: sp.front_face,
@@ -346,14 +347,15 @@ impl PathTracer {
         let v = if let Some(hit) = hit {
             PathVertex::of(&ctx.frame, &SurfacePoint::from_hit(&ctx.frame, &primary, &hit))
         } else {
+            let (metallic, roughness) = ctx.frame.scene.metallic_roughness(g.material[i], g.uv[i]);
             PathVertex {
                 position: g.position[i],
                 error_scale: g.error_scale[i],
                 normal: g.normal[i],
                 shading_normal: g.shading_normal[i],
                 base: g.albedo[i],
-                metallic: m.metallic,
-                roughness: m.roughness,
+                metallic,
+                roughness,
                 clearcoat: m.clearcoat,
                 model: m.model,
                 front_face: true,

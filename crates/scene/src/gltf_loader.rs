@@ -14,9 +14,15 @@
 //!   enable that `gltf` feature). Emission is radiance in W/(m²·sr). An emissive texture is
 //!   approximated by its mean colour (warning). `KHR_materials_transmission` (factor ≥ 0.5) makes
 //!   the material smooth glass (the dielectric, `KHR_materials_ior`'s index or 1.5, tinted by
-//!   the base colour; a rough one with a warning). Metallic-roughness, normal and occlusion
-//!   textures, alpha modes and texture sets other than 0 are ignored with one warning each, and
-//!   every other extension the file uses is named in one warning.
+//!   the base colour; a rough one with a warning). A metallic-roughness texture (raw G
+//!   roughness, B metallic) is read per texel by the references ([`MetallicRoughnessMap`]) and
+//!   its mean × the factors is the material's one BRDF for the techniques; where its uvs differ
+//!   from the base colour texture's (another set or transform) the mean alone is used (warning).
+//!   A normal texture (raw, tangent space) bends the shading normal per texel for every
+//!   technique ([`NormalMap`]; the tangent frame from the triangle's uvs, as pbrt-v4 builds it),
+//!   on the base colour texture's uvs only (else ignored, warning). Occlusion textures, alpha
+//!   mode BLEND and texture sets other than 0 are ignored with one warning each, and every other
+//!   extension the file uses is named in one warning.
 //! * Camera: the first perspective camera node in depth-first order, at time 0: position, target
 //!   = position + forward (the node's −Z), up (the node's +Y), `yfov`.
 //! * Lights (`KHR_lights_punctual`): point, spot (inner/outer cone half-angles) and directional,
@@ -42,7 +48,10 @@
 //!   vertex indices and NaN are left to [`crate::validate`].
 
 use crate::obj_loader::guard;
-use crate::{AlphaMask, Camera, Instance, Light, Material, MaterialModel, Mesh, Motion, Scene, SceneError, Transform, TransformKey};
+use crate::{
+    AlphaMask, Camera, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap, Scene, SceneError,
+    Transform, TransformKey,
+};
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
 use glimpse_core::{Image, Mat4, Quat, Vec2, Vec3, Vec4};
@@ -117,7 +126,7 @@ struct Loader<'a> {
     /// glTF image index → our texture id (`None`: could not be decoded).
     textures: HashMap<usize, Option<u32>>,
     /// Image index → its raw channel means (data textures), read once.
-    data_means: HashMap<usize, Option<Vec3>>,
+    data_textures: HashMap<usize, Option<u32>>,
     /// Per glTF image: its alpha channel as a coverage texture (`None`: it has none).
     coverages: HashMap<usize, Option<u32>>,
     /// Ignored features → how often, reported as one warning each.
@@ -207,7 +216,7 @@ impl<'a> Loader<'a> {
             meshes: HashMap::new(),
             materials: HashMap::new(),
             textures: HashMap::new(),
-            data_means: HashMap::new(),
+            data_textures: HashMap::new(),
             coverages: HashMap::new(),
             ignored: BTreeMap::new(),
         };
@@ -583,20 +592,45 @@ impl<'a> Loader<'a> {
                     mat.emission *= self.scene.textures[id as usize].mean();
                 }
             }
-            // One BRDF per material: a metallic-roughness texture's mean stands in for its
-            // texels (G roughness, B metallic, glTF's channels). The BRDF is affine in metallic,
-            // so the mean keeps the material's average reflectance; roughness is averaged as a
-            // parameter. The factors alone (1 and 1 unless given) would make such a material
-            // an entirely rough metal.
-            if let Some(info) = pbr.metallic_roughness_texture() {
-                self.ignore("metallic-roughness textures (their mean used)");
-                if let Some(mean) = self.data_mean(info.texture().source())? {
-                    mat.roughness *= mean.y;
-                    mat.metallic *= mean.z;
+            // A metallic-roughness texture (G roughness, B metallic, glTF's channels): the
+            // references read it per texel; the material's own values are its mean × the
+            // factors, the one BRDF per material that per-material precomputation uses (the
+            // BRDF is affine in metallic, so the mean keeps the average reflectance; roughness
+            // is averaged as a parameter). The factors alone (1 and 1 unless given) would make
+            // such a material an entirely rough metal.
+            if let Some(info) = pbr.metallic_roughness_texture()
+                && let Some(texture) = self.data_texture(info.texture().source())?
+            {
+                let (metallic, roughness) = (mat.metallic, mat.roughness);
+                let mean = self.scene.textures[texture as usize].mean();
+                mat.roughness *= mean.y;
+                mat.metallic *= mean.z;
+                // The primitive's uvs carry the base colour texture's transform: the texels
+                // are read per point only where this texture's uvs are the same.
+                let transform =
+                    |t: Option<gltf::texture::TextureTransform>| t.map(|t| (t.offset(), t.scale(), t.rotation(), t.tex_coord()));
+                let base_transform = pbr.base_color_texture().and_then(|b| transform(b.texture_transform()));
+                if info.tex_coord() == 0 && transform(info.texture_transform()) == base_transform {
+                    mat.metallic_roughness_map = Some(MetallicRoughnessMap { texture, metallic, roughness });
+                } else {
+                    self.ignore("metallic-roughness textures whose uvs differ from the base colour texture's (their mean used)");
                 }
             }
-            if m.normal_texture().is_some() || m.occlusion_texture().is_some() {
-                self.ignore("normal and occlusion textures");
+            // A normal texture on the base colour texture's uvs (the primitive's uvs carry
+            // that texture's transform): the shading normal per texel ([`NormalMap`]).
+            if let Some(normal) = m.normal_texture() {
+                let raw_transform = |texture: &gltf::json::Value| texture["extensions"]["KHR_texture_transform"].clone();
+                let material = &self.json["materials"][index];
+                let same_uvs = normal.tex_coord() == 0
+                    && raw_transform(&material["normalTexture"]) == raw_transform(&material["pbrMetallicRoughness"]["baseColorTexture"]);
+                match self.data_texture(normal.texture().source())? {
+                    Some(texture) if same_uvs => mat.normal_map = Some(NormalMap { texture, scale: normal.scale() }),
+                    Some(_) => self.ignore("normal textures whose uvs differ from the base colour texture's"),
+                    None => {}
+                }
+            }
+            if m.occlusion_texture().is_some() {
+                self.ignore("occlusion textures (ambient occlusion is what the techniques compute)");
             }
             match m.alpha_mode() {
                 gltf::material::AlphaMode::Opaque => {}
@@ -637,7 +671,7 @@ impl<'a> Loader<'a> {
         }
         let index = image.index();
         let id = match self.image_data(image)? {
-            Some(data) => match linear_image(&data) {
+            Some(data) => match decoded_image(&data, true) {
                 Some(img) => {
                     self.scene.textures.push(img);
                     Some(self.scene.textures.len() as u32 - 1)
@@ -671,25 +705,28 @@ impl<'a> Loader<'a> {
         Ok(id)
     }
 
-    /// The mean of an image's raw channels in [0, 1], not sRGB-decoded (a metallic-roughness
-    /// texture holds data, not colour); `None` (with a warning) where it cannot be read.
-    fn data_mean(&mut self, image: gltf::Image) -> Result<Option<Vec3>, SceneError> {
+    /// An image of data, not colour (a metallic-roughness texture): its raw channels in [0, 1],
+    /// not sRGB-decoded (once); `None` (with a warning) where it cannot be read.
+    fn data_texture(&mut self, image: gltf::Image) -> Result<Option<u32>, SceneError> {
         let index = image.index();
-        if let Some(&mean) = self.data_means.get(&index) {
-            return Ok(mean);
+        if let Some(&id) = self.data_textures.get(&index) {
+            return Ok(id);
         }
-        let mean = match self.image_data(image)? {
-            Some(data) => {
-                let mean = channel_means(&data);
-                if mean.is_none() {
-                    self.warn(format!("image {index}: pixel data does not match its size; its factors used alone"));
+        let id = match self.image_data(image)? {
+            Some(data) => match decoded_image(&data, false) {
+                Some(img) => {
+                    self.scene.textures.push(img);
+                    Some(self.scene.textures.len() as u32 - 1)
                 }
-                mean
-            }
+                None => {
+                    self.warn(format!("image {index}: pixel data does not match its size; its factors used alone"));
+                    None
+                }
+            },
             None => None,
         };
-        self.data_means.insert(index, mean);
-        Ok(mean)
+        self.data_textures.insert(index, id);
+        Ok(id)
     }
 
     /// An image's decoded pixels; one that cannot be found or decoded is a warning and `None`,
@@ -814,23 +851,6 @@ fn check_positions(json: &gltf::json::Value) -> Result<(), String> {
     Ok(())
 }
 
-/// glTF image data as linear RGB: 8- and 16-bit channels are sRGB-encoded colour (the spec's
-/// base-colour and emissive textures), float channels are already linear. `None` when the pixel
-/// buffer is shorter than its size says.
-/// The mean of each of an image's first three channels, raw in [0, 1] (one or two channels:
-/// grey); `None` where the pixel data does not match its size.
-fn channel_means(data: &gltf::image::Data) -> Option<Vec3> {
-    let (channels, bytes) = checked_layout(data)?;
-    let count = data.width as usize * data.height as usize;
-    let mut sum = [0.0f64; 3];
-    for p in 0..count {
-        for (c, s) in sum.iter_mut().enumerate() {
-            *s += raw_channel(data, bytes, p * channels + if channels < 3 { 0 } else { c }) as f64;
-        }
-    }
-    Some(Vec3::new(sum[0] as f32, sum[1] as f32, sum[2] as f32) / count as f32)
-}
-
 /// (channels, bytes per channel) of a decoded glTF image, `None` where it has no pixels or its
 /// data is shorter than its size says.
 fn checked_layout(data: &gltf::image::Data) -> Option<(usize, usize)> {
@@ -863,10 +883,14 @@ fn raw_channel(data: &gltf::image::Data, bytes: usize, i: usize) -> f32 {
     }
 }
 
-fn linear_image(data: &gltf::image::Data) -> Option<Image> {
+/// A decoded image's colour channels; with `srgb`, 8- and 16-bit values are sRGB-decoded (colour
+/// is sRGB-encoded, floats are linear), without it taken raw (data).
+fn decoded_image(data: &gltf::image::Data, srgb: bool) -> Option<Image> {
     let (channels, bytes) = checked_layout(data)?;
-    // 8- and 16-bit colour is sRGB-encoded, floats are linear.
-    let channel = |i: usize| if bytes < 4 { srgb_decode(raw_channel(data, bytes, i)) } else { raw_channel(data, bytes, i) };
+    let channel = |i: usize| {
+        let v = raw_channel(data, bytes, i);
+        if srgb && bytes < 4 { srgb_decode(v) } else { v }
+    };
     let w = data.width as usize;
     Some(Image::from_fn(data.width, data.height, |x, y| {
         let p = (y as usize * w + x as usize) * channels;

@@ -100,6 +100,52 @@ pub struct Material {
     /// glTF's alpha mode MASK: where the coverage is under the cutoff the surface is a hole
     /// (`None`: opaque).
     pub alpha_mask: Option<AlphaMask>,
+    /// Per-texel metallic and roughness (glTF's metallic-roughness texture), read by the exact
+    /// references ([`Scene::metallic_roughness`]). `metallic` and `roughness` above then hold the
+    /// texture's mean × the factors: the one BRDF per material that the techniques which
+    /// precompute per material (the wavelet cache's BRDF tables) use.
+    pub metallic_roughness_map: Option<MetallicRoughnessMap>,
+    /// glTF's normal texture: the shading normal per texel, for every technique (the tracer's
+    /// surface points, so the GBuffer and every path vertex, carry it).
+    pub normal_map: Option<NormalMap>,
+}
+
+/// glTF's normal texture: a tangent-space normal per texel, its channels raw in [0, 1] mapped to
+/// [−1, 1], x and y × `scale`, renormalized (the spec's `scaledNormal`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalMap {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    pub scale: f32,
+}
+
+impl NormalMap {
+    /// The shading normal at `uv` of a surface whose interpolated normal is `n` (unit, on the
+    /// triangle's front side) and whose position moves by `dpdu`, `dpdv` per unit of u and v;
+    /// `None` where the uvs do not span the surface. The tangent frame is pbrt-v4's
+    /// (`NormalMap` in its textures): T = dp/du made orthogonal to `n`, B = n × T, with B's sign
+    /// chosen against dp/dv: the texture's +y is the image's up and v = 0 its top row (glTF's
+    /// convention, which our uvs use), and a mirrored uv mapping flips it, as glTF's tangent
+    /// sign does. The frame is the triangle's, not MikkTSpace's per-vertex tangents; on a
+    /// mapping without shear they agree.
+    pub fn perturb(&self, texture: &Image, uv: Vec2, n: Vec3, dpdu: Vec3, dpdv: Vec3) -> Option<Vec3> {
+        let t = (dpdu - n * n.dot(dpdu)).try_normalize()?;
+        let b = n.cross(t);
+        let b = if b.dot(dpdv) > 0.0 { -b } else { b };
+        let c = texture.sample_repeat(uv.x, uv.y) * 2.0 - Vec3::ONE;
+        (t * (c.x * self.scale) + b * (c.y * self.scale) + n * c.z).try_normalize()
+    }
+}
+
+/// glTF's metallic-roughness texture: at uv, roughness = `roughness` × the texel's G channel and
+/// metallic = `metallic` × its B channel (raw values, not sRGB; bilinear, repeating).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MetallicRoughnessMap {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// The factors the texels multiply (glTF's `metallicFactor`, `roughnessFactor`).
+    pub metallic: f32,
+    pub roughness: f32,
 }
 
 /// A cut-out surface (glTF `alphaMode: MASK`): coverage α = `factor` × the texture's value at
@@ -141,6 +187,8 @@ impl Default for Material {
             emission: Vec3::ZERO,
             clearcoat: 0.0,
             alpha_mask: None,
+            metallic_roughness_map: None,
+            normal_map: None,
         }
     }
 }
@@ -241,6 +289,19 @@ impl Scene {
         match m.base_color_texture {
             Some(t) => m.base_color * self.textures[t as usize].sample_repeat(uv.x, uv.y),
             None => m.base_color,
+        }
+    }
+
+    /// (metallic, roughness) of `material` at `uv`: its [`MetallicRoughnessMap`]'s texel × factors
+    /// where it has one, else the material's own values.
+    pub fn metallic_roughness(&self, material: u32, uv: Vec2) -> (f32, f32) {
+        let m = &self.materials[material as usize];
+        match m.metallic_roughness_map {
+            Some(map) => {
+                let texel = self.textures[map.texture as usize].sample_repeat(uv.x, uv.y);
+                ((map.metallic * texel.z).clamp(0.0, 1.0), (map.roughness * texel.y).clamp(0.0, 1.0))
+            }
+            None => (m.metallic, m.roughness),
         }
     }
 

@@ -47,10 +47,35 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
             }
             _ => {}
         }
-        if let Some(t) = mat.base_color_texture
-            && t as usize >= scene.textures.len()
-        {
+        let textures = [
+            mat.base_color_texture,
+            mat.alpha_mask.and_then(|m| m.texture),
+            mat.metallic_roughness_map.map(|m| m.texture),
+            mat.normal_map.map(|m| m.texture),
+        ];
+        if let Some(t) = textures.into_iter().flatten().find(|&t| t as usize >= scene.textures.len()) {
             return Err(invalid(format!("material {mi} '{name}' uses texture {t}, but there are {}", scene.textures.len())));
+        }
+        if let Some(mask) = mat.alpha_mask
+            && !(mask.factor.is_finite() && mask.cutoff.is_finite())
+        {
+            return Err(invalid(format!(
+                "material {mi} '{name}': alpha mask factor {} and cutoff {} must be finite",
+                mask.factor, mask.cutoff
+            )));
+        }
+        if let Some(map) = mat.normal_map
+            && !map.scale.is_finite()
+        {
+            return Err(invalid(format!("material {mi} '{name}': normal map scale {} must be finite", map.scale)));
+        }
+        if let Some(map) = mat.metallic_roughness_map
+            && !((0.0..=1.0).contains(&map.metallic) && (0.0..=1.0).contains(&map.roughness))
+        {
+            return Err(invalid(format!(
+                "material {mi} '{name}': metallic-roughness factors {} and {} must be in [0, 1]",
+                map.metallic, map.roughness
+            )));
         }
     }
 
@@ -158,4 +183,36 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         return Err(invalid(format!("the scene has zero area (its bounds' extent is {})", extent)));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{AlphaMask, Material, MetallicRoughnessMap, NormalMap};
+    use glimpse_core::{Image, Vec3};
+
+    /// A material's textures (base colour, alpha mask, metallic-roughness, normal) must exist, and its
+    /// maps' factors must be in range: a bad index would panic at the first texel read.
+    #[test]
+    fn material_maps_are_checked() {
+        let plain = || Material::diffuse("m", Vec3::ONE);
+        let map = |texture, metallic| Some(MetallicRoughnessMap { texture, metallic, roughness: 1.0 });
+        let mask = |texture, factor| Some(AlphaMask { texture, factor, cutoff: 0.5 });
+        let cases = [
+            (Material { metallic_roughness_map: map(3, 1.0), ..plain() }, "uses texture 3, but there are 1"),
+            (Material { alpha_mask: mask(Some(2), 1.0), ..plain() }, "uses texture 2, but there are 1"),
+            (Material { metallic_roughness_map: map(0, 1.5), ..plain() }, "metallic-roughness factors 1.5 and 1"),
+            (Material { alpha_mask: mask(None, f32::NAN), ..plain() }, "alpha mask factor NaN"),
+            (Material { normal_map: Some(NormalMap { texture: 4, scale: 1.0 }), ..plain() }, "uses texture 4, but there are 1"),
+            (Material { normal_map: Some(NormalMap { texture: 0, scale: f32::INFINITY }), ..plain() }, "normal map scale inf"),
+        ];
+        for (material, expected) in cases {
+            let mut scene = Scene::default();
+            scene.textures.push(Image::from_fn(1, 1, |_, _| Vec3::ONE));
+            scene.add_material(material);
+            let e = validate(&mut scene, "test").expect_err("an invalid material").to_string();
+            println!("{e}");
+            assert!(e.contains(expected), "{e}");
+        }
+    }
 }

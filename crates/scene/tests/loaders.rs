@@ -950,11 +950,13 @@ fn gltf_alpha_mask_reads_the_coverage() {
     assert!(scene.warnings.iter().any(|w| w.contains("alpha mode BLEND (drawn opaque)")), "{:?}", scene.warnings);
 }
 
-/// A metallic-roughness texture's mean (raw, not sRGB-decoded; G roughness, B metallic) scales
-/// the factors: real assets leave the factors at 1 and put the values in the texture, which
-/// read alone would make every such material a fully rough metal.
+/// A metallic-roughness texture (raw, not sRGB-decoded; G roughness, B metallic) is read per
+/// texel ([`Scene::metallic_roughness`]), and its mean scales the material's factors: real
+/// assets leave the factors at 1 and put the values in the texture, which read alone would make
+/// every such material a fully rough metal. A texture on other uvs than the base colour's
+/// leaves the mean alone, with a warning.
 #[test]
-fn gltf_metallic_roughness_texture_sets_the_mean() {
+fn gltf_metallic_roughness_texture_is_read_per_texel() {
     let dir = scratch("gltf_metallic_roughness");
     let path = dir.join("mr.png");
     // Stored sRGB-encoded: raw G is srgb_encode(0.2) in both texels, raw B 1 and 0.
@@ -967,10 +969,52 @@ fn gltf_metallic_roughness_texture_sets_the_mean() {
         .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
         .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
     assert!(json.contains("metallicRoughnessTexture") && json.contains(r#"{"source": 1}"#));
-    let scene = load(&write(&dir, "mr.gltf", json)).unwrap();
+    let scene = load(&write(&dir, "mr.gltf", json.clone())).unwrap();
     let m = &scene.materials[scene.meshes[0].material as usize];
     let roughness = (glimpse_core::image::srgb_encode(0.2) * 255.0).round() / 255.0;
     println!("roughness {} (expected {roughness}), metallic {} (expected 0.5); warnings {:?}", m.roughness, m.metallic, scene.warnings);
     assert!((m.roughness - roughness).abs() < 1e-3 && (m.metallic - 0.5).abs() < 1e-3);
-    assert!(scene.warnings.iter().any(|w| w.contains("metallic-roughness textures (their mean used)")), "{:?}", scene.warnings);
+    let mid = scene.meshes[0].material;
+    let (left, right) = (scene.metallic_roughness(mid, Vec2::new(0.25, 0.5)), scene.metallic_roughness(mid, Vec2::new(0.75, 0.5)));
+    println!("per texel (metallic, roughness): left {left:?}, right {right:?}");
+    assert!((left.0 - 1.0).abs() < 1e-6 && right.0.abs() < 1e-6, "{left:?} {right:?}");
+    assert!((left.1 - roughness).abs() < 1e-6 && (right.1 - roughness).abs() < 1e-6, "{left:?} {right:?}");
+    assert!(!scene.warnings.iter().any(|w| w.contains("metallic-roughness")), "{:?}", scene.warnings);
+    // On TEXCOORD_1 (not read): the mean alone.
+    let other_uvs =
+        json.replace(r#""metallicRoughnessTexture": {"index": 1}"#, r#""metallicRoughnessTexture": {"index": 1, "texCoord": 1}"#);
+    let scene = load(&write(&dir, "mr1.gltf", other_uvs)).unwrap();
+    let m = &scene.materials[scene.meshes[0].material as usize];
+    assert!(m.metallic_roughness_map.is_none() && (m.metallic - 0.5).abs() < 1e-3);
+    assert!(scene.warnings.iter().any(|w| w.contains("metallic-roughness textures whose uvs differ")), "{:?}", scene.warnings);
+}
+
+/// A normal texture (raw, not sRGB-decoded) with its scale becomes the material's [`NormalMap`];
+/// on other uvs than the base colour texture's it is ignored with a warning.
+#[test]
+fn gltf_normal_texture_is_read_raw_with_its_scale() {
+    let dir = scratch("gltf_normal_texture");
+    let path = dir.join("n.png");
+    // Stored sRGB-encoded by `write`: the raw value read back is srgb_encode(0.2) etc.
+    Image::from_fn(1, 1, |_, _| Vec3::new(0.2, 0.5, 1.0)).write(&path, ToneMap::default()).unwrap();
+    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let json = gltf_json(Some(&uri))
+        .replace(r#""name": "glow","#, r#""name": "glow", "normalTexture": {"index": 1, "scale": 0.5},"#)
+        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
+        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    assert!(json.contains("normalTexture"));
+    let scene = load(&write(&dir, "n.gltf", json.clone())).unwrap();
+    let m = &scene.materials[scene.meshes[0].material as usize];
+    let map = m.normal_map.expect("a normal map");
+    let texel = scene.textures[map.texture as usize].pixels[0];
+    let raw = (glimpse_core::image::srgb_encode(0.2) * 255.0).round() / 255.0;
+    println!("normal map {map:?}, texel {texel}; warnings {:?}", scene.warnings);
+    assert_eq!(map.scale, 0.5);
+    assert!((texel.x - raw).abs() < 1e-6 && texel.z == 1.0, "raw channels, not decoded: {texel}");
+    assert!(!scene.warnings.iter().any(|w| w.contains("normal textures")), "{:?}", scene.warnings);
+    let other_uvs = json.replace(r#""normalTexture": {"index": 1, "scale": 0.5}"#, r#""normalTexture": {"index": 1, "texCoord": 1}"#);
+    let scene = load(&write(&dir, "n1.gltf", other_uvs)).unwrap();
+    assert!(scene.materials.iter().all(|m| m.normal_map.is_none()));
+    assert!(scene.warnings.iter().any(|w| w.contains("normal textures whose uvs differ")), "{:?}", scene.warnings);
 }

@@ -5,7 +5,8 @@
 //! one-sided emitters (area lights) need.
 
 use crate::{Hit, SceneFrame};
-use glimpse_core::{Mat3, Ray, Vec2, Vec3};
+use glimpse_core::{Image, Mat3, Ray, Vec2, Vec3};
+use glimpse_scene::NormalMap;
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
@@ -15,13 +16,31 @@ pub struct SurfacePoint {
     pub error_scale: f32,
     /// Unit geometric normal, facing the ray's origin.
     pub normal: Vec3,
-    /// Unit interpolated normal (geometric where the mesh has none), in `normal`'s hemisphere.
+    /// Unit interpolated normal (geometric where the mesh has none), bent by the material's
+    /// normal map where it has one, in `normal`'s hemisphere.
     pub shading_normal: Vec3,
     pub front_face: bool,
     pub uv: Vec2,
     pub material: u32,
     pub instance: u32,
     pub triangle: u32,
+}
+
+/// A normal map's bent normal at `uv` on the triangle with world corners `p` and texture
+/// coordinates `uvs`, whose authored normal there is `n` (unit: the interpolated vertex normal,
+/// or the winding's where the mesh has none). It is the front's (the side `n` points to); seen
+/// from the back it is reversed whole (glTF's double-sided rule). `None` where the triangle's
+/// uvs are degenerate.
+fn normal_mapped(map: &NormalMap, texture: &Image, uv: Vec2, p: &[Vec3; 3], uvs: &[Vec2; 3], n: Vec3) -> Option<Vec3> {
+    let (e1, e2) = (p[1] - p[0], p[2] - p[0]);
+    let (d1, d2) = (uvs[1] - uvs[0], uvs[2] - uvs[0]);
+    let det = d1.x * d2.y - d1.y * d2.x;
+    if det.abs() < 1e-12 {
+        return None;
+    }
+    let dpdu = (e1 * d2.y - e2 * d1.y) / det;
+    let dpdv = (e2 * d1.x - e1 * d2.x) / det;
+    map.perturb(texture, uv, n, dpdu, dpdv)
 }
 
 impl SurfacePoint {
@@ -40,16 +59,27 @@ impl SurfacePoint {
         let raw = (p[1] - p[0]).cross(p[2] - p[0]).normalize_or(Vec3::Y);
         let front_face = raw.dot(ray.dir) < 0.0;
         let normal = if front_face { raw } else { -raw };
-        let normals = &frame.normals[inst.mesh as usize];
-        let shading_normal = if normals.is_empty() {
-            normal
-        } else {
-            let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
-            let n = (normal_matrix * (normals[i0] * b0 + normals[i1] * hit.b1 + normals[i2] * hit.b2)).normalize_or(normal);
-            if n.dot(normal) < 0.0 { -n } else { n }
-        };
         let uv =
             if mesh.uvs.is_empty() { Vec2::new(hit.b1, hit.b2) } else { mesh.uvs[i0] * b0 + mesh.uvs[i1] * hit.b1 + mesh.uvs[i2] * hit.b2 };
+        let normals = &frame.normals[inst.mesh as usize];
+        let authored = if normals.is_empty() {
+            raw
+        } else {
+            let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
+            (normal_matrix * (normals[i0] * b0 + normals[i1] * hit.b1 + normals[i2] * hit.b2)).normalize_or(raw)
+        };
+        let facing = |n: Vec3| if n.dot(normal) < 0.0 { -n } else { n };
+        let mut shading_normal = facing(authored);
+        if let Some(map) = scene.materials[mesh.material as usize].normal_map
+            && !mesh.uvs.is_empty()
+        {
+            let uvs = [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]];
+            // Reversed with the authored normal; one bent out of `normal`'s hemisphere is not used.
+            let bent = normal_mapped(&map, &scene.textures[map.texture as usize], uv, &p, &uvs, authored)
+                .map(|b| if authored.dot(normal) < 0.0 { -b } else { b })
+                .filter(|b| b.dot(normal) > 0.0);
+            shading_normal = bent.unwrap_or(shading_normal);
+        }
         SurfacePoint {
             position,
             error_scale,

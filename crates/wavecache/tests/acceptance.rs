@@ -888,6 +888,7 @@ fn glossy_runtime_matches_direct_integration_at_a_cache_point() {
         shading_normal: np,
         base: scene.materials[gold as usize].base_color,
         material: gold,
+        uv: glimpse_core::Vec2::ZERO,
         instance: inst as u32,
         front_face: true,
     };
