@@ -147,7 +147,8 @@ pub struct AreaSample {
 /// density turned into solid angle (pdf = P(tri) · d² / (area · cos θ_light)). `None` when the
 /// scene has no area light, the point is behind its one-sided emitter, or it falls in the
 /// emitter's alpha-mask cut-out (zero contribution: the emitter is not there, and the density
-/// over the whole triangle stays unbiased).
+/// over the whole triangle stays unbiased). The radiance is the point's own (an emissive
+/// texture's texel: `SceneFrame::emitted_at`); the triangle is picked by its mean.
 pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, e: f32, u_pick: f32, u: Vec2) -> Option<AreaSample> {
     let dist = frame.emissive_distribution.as_ref()?;
     let (idx, p_tri) = dist.sample_discrete(u_pick);
@@ -159,16 +160,14 @@ pub fn sample_area_light(frame: &SceneFrame, p: Vec3, n: Vec3, e: f32, u_pick: f
         return None;
     }
     let b = glimpse_core::sampling::uniform_triangle(u);
-    if frame.cut_out_at(tri.instance, tri.triangle, b.x, b.y) {
-        return None;
-    }
+    let radiance = frame.emitted_at(tri, b.x, b.y)?;
     let wi = to / d2.sqrt();
     let cos_light = -tri.normal.dot(wi);
     if cos_light <= 0.0 {
         return None;
     }
     let (shadow, t_max) = segment(p, n, e, offset_origin(x, tri.normal, x_scale));
-    Some(AreaSample { wi, radiance: tri.radiance, pdf: p_tri * d2 / (tri.area * cos_light), shadow, t_max })
+    Some(AreaSample { wi, radiance, pdf: p_tri * d2 / (tri.area * cos_light), shadow, t_max })
 }
 
 /// The shadow ray from the surface point `p` (normal `n`, error scale `e`) to the point `end`.

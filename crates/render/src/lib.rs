@@ -33,8 +33,8 @@ pub use technique::{Need, RenderError, Settings, Technique, require};
 /// point's error scale (session 10); 3 = VPLs' own error scales at their shadow rays' end;
 /// 4 = mirrored instances keep their faces' orientation (`glimpse_scene::orient`, session 25);
 /// 5 = glTF alpha masks cut out by the exact tracer (session 28); 6 = glTF metallic-roughness
-/// textures read per texel by the path tracer, and normal textures bending the shading normal
-/// (session 29).
+/// textures read per texel by the path tracer, normal textures bending the shading normal and
+/// emissive textures emitting per texel (session 29).
 pub const RESULTS_REVISION: u32 = 6;
 
 /// Where glimpse keeps data that is slow to compute (reference images, precomputations):

@@ -226,17 +226,34 @@ impl SceneFrame<'_> {
     /// ([`crate::AlphaMask`]; false at once for a material without a mask).
     pub fn cut_out_at(&self, instance: u32, triangle: u32, b1: f32, b2: f32) -> bool {
         let scene = self.scene;
-        let mesh = &scene.meshes[scene.instances[instance as usize].mesh as usize];
-        if scene.materials[mesh.material as usize].alpha_mask.is_none() {
-            return false;
+        let material = scene.meshes[scene.instances[instance as usize].mesh as usize].material;
+        scene.materials[material as usize].alpha_mask.is_some() && scene.cut_out(material, self.uv_at(instance, triangle, b1, b2))
+    }
+
+    /// The radiance emitter `tri` emits at its barycentrics (`b1`, `b2`): its material's
+    /// [`crate::EmissionMap`] texel where it has one, else `tri.radiance`; `None` where the
+    /// point is cut out ([`crate::AlphaMask`]).
+    pub fn emitted_at(&self, tri: &EmissiveTriangle, b1: f32, b2: f32) -> Option<Vec3> {
+        let scene = self.scene;
+        let material = scene.meshes[scene.instances[tri.instance as usize].mesh as usize].material;
+        let m = &scene.materials[material as usize];
+        if m.alpha_mask.is_none() && m.emission_map.is_none() {
+            return Some(tri.radiance);
         }
-        let uv = if mesh.uvs.is_empty() {
+        let uv = self.uv_at(tri.instance, tri.triangle, b1, b2);
+        (!scene.cut_out(material, uv)).then(|| scene.emission(material, uv))
+    }
+
+    /// Texture coordinates at barycentrics (`b1`, `b2`) of `triangle` of `instance` (the
+    /// barycentrics themselves where the mesh has no uvs, as the tracer's surface points).
+    fn uv_at(&self, instance: u32, triangle: u32, b1: f32, b2: f32) -> Vec2 {
+        let mesh = &self.scene.meshes[self.scene.instances[instance as usize].mesh as usize];
+        if mesh.uvs.is_empty() {
             Vec2::new(b1, b2)
         } else {
             let [u0, u1, u2] = mesh.indices[triangle as usize].map(|i| mesh.uvs[i as usize]);
             u0 * (1.0 - b1 - b2) + u1 * b1 + u2 * b2
-        };
-        scene.cut_out(mesh.material, uv)
+        }
     }
 
     /// Each of [`SceneFrame::world_triangles`]' triangles' (instance, triangle), in its order.

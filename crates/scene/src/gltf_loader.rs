@@ -12,7 +12,8 @@
 //!   linear; its `KHR_texture_transform` is applied to the primitive's uvs), roughness and metallic factors, emission = `emissiveFactor` ×
 //!   `KHR_materials_emissive_strength` (read from the raw JSON, since the workspace does not
 //!   enable that `gltf` feature). Emission is radiance in W/(m²·sr). An emissive texture is
-//!   approximated by its mean colour (warning). `KHR_materials_transmission` (factor ≥ 0.5) makes
+//!   read per texel by the references ([`EmissionMap`]); its mean × the factor is the
+//!   material's one emission (the light selection's weight, the RSM's lights). `KHR_materials_transmission` (factor ≥ 0.5) makes
 //!   the material smooth glass (the dielectric, `KHR_materials_ior`'s index or 1.5, tinted by
 //!   the base colour; a rough one with a warning). A metallic-roughness texture (raw G
 //!   roughness, B metallic) is read per texel by the references ([`MetallicRoughnessMap`]) and
@@ -49,8 +50,8 @@
 
 use crate::obj_loader::guard;
 use crate::{
-    AlphaMask, Camera, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap, Scene, SceneError,
-    Transform, TransformKey,
+    AlphaMask, Camera, EmissionMap, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap, Scene,
+    SceneError, Transform, TransformKey,
 };
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
@@ -584,12 +585,19 @@ impl<'a> Loader<'a> {
                 }
             }
             mat.emission = Vec3::from_array(m.emissive_factor()) * strength;
+            // An emissive texture: the references read it per texel ([`EmissionMap`]); the
+            // material's own emission is its mean × the factor (the light selection's weight,
+            // and the one radiance of the techniques that build lights per emitter).
             if let Some(info) = m.emissive_texture()
                 && mat.is_emissive()
+                && let Some(texture) = self.texture(info.texture().source())?
             {
-                self.ignore("emissive textures (emission scaled by the texture's mean colour)");
-                if let Some(id) = self.texture(info.texture().source())? {
-                    mat.emission *= self.scene.textures[id as usize].mean();
+                let factor = mat.emission;
+                mat.emission *= self.scene.textures[texture as usize].mean();
+                if info.tex_coord() == 0 && self.same_transform(index, &["emissiveTexture"]) {
+                    mat.emission_map = Some(EmissionMap { texture, factor });
+                } else {
+                    self.ignore("emissive textures whose uvs differ from the base colour texture's (their mean used)");
                 }
             }
             // A metallic-roughness texture (G roughness, B metallic, glTF's channels): the
@@ -605,12 +613,7 @@ impl<'a> Loader<'a> {
                 let mean = self.scene.textures[texture as usize].mean();
                 mat.roughness *= mean.y;
                 mat.metallic *= mean.z;
-                // The primitive's uvs carry the base colour texture's transform: the texels
-                // are read per point only where this texture's uvs are the same.
-                let transform =
-                    |t: Option<gltf::texture::TextureTransform>| t.map(|t| (t.offset(), t.scale(), t.rotation(), t.tex_coord()));
-                let base_transform = pbr.base_color_texture().and_then(|b| transform(b.texture_transform()));
-                if info.tex_coord() == 0 && transform(info.texture_transform()) == base_transform {
+                if info.tex_coord() == 0 && self.same_transform(index, &["pbrMetallicRoughness", "metallicRoughnessTexture"]) {
                     mat.metallic_roughness_map = Some(MetallicRoughnessMap { texture, metallic, roughness });
                 } else {
                     self.ignore("metallic-roughness textures whose uvs differ from the base colour texture's (their mean used)");
@@ -619,10 +622,7 @@ impl<'a> Loader<'a> {
             // A normal texture on the base colour texture's uvs (the primitive's uvs carry
             // that texture's transform): the shading normal per texel ([`NormalMap`]).
             if let Some(normal) = m.normal_texture() {
-                let raw_transform = |texture: &gltf::json::Value| texture["extensions"]["KHR_texture_transform"].clone();
-                let material = &self.json["materials"][index];
-                let same_uvs = normal.tex_coord() == 0
-                    && raw_transform(&material["normalTexture"]) == raw_transform(&material["pbrMetallicRoughness"]["baseColorTexture"]);
+                let same_uvs = normal.tex_coord() == 0 && self.same_transform(index, &["normalTexture"]);
                 match self.data_texture(normal.texture().source())? {
                     Some(texture) if same_uvs => mat.normal_map = Some(NormalMap { texture, scale: normal.scale() }),
                     Some(_) => self.ignore("normal textures whose uvs differ from the base colour texture's"),
@@ -649,6 +649,16 @@ impl<'a> Loader<'a> {
         let id = self.scene.add_material(mat);
         self.materials.insert(m.index(), id);
         Ok(id)
+    }
+
+    /// Whether the texture at `path` in material `index`'s JSON has the base colour texture's
+    /// `KHR_texture_transform` (both none, or the same values as written): the primitive's uvs
+    /// carry that transform, so only such a texture can be read per point on them.
+    fn same_transform(&self, index: usize, path: &[&str]) -> bool {
+        let material = &self.json["materials"][index];
+        let texture = path.iter().fold(material, |v, key| &v[*key]);
+        let transform = |t: &gltf::json::Value| t["extensions"]["KHR_texture_transform"].clone();
+        transform(texture) == transform(&material["pbrMetallicRoughness"]["baseColorTexture"])
     }
 
     /// `KHR_texture_transform` on a material's base colour texture, as a map of the primitive's

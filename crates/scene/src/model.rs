@@ -108,6 +108,21 @@ pub struct Material {
     /// glTF's normal texture: the shading normal per texel, for every technique (the tracer's
     /// surface points, so the GBuffer and every path vertex, carry it).
     pub normal_map: Option<NormalMap>,
+    /// glTF's emissive texture: the emitted radiance per texel ([`Scene::emission`]), read by
+    /// the exact tracer's surface points and light samples. `emission` above then holds the
+    /// texture's mean × the factor: the one radiance per emitter that the techniques which
+    /// build lights from the emitters (the RSM's VPLs) and the light selection use.
+    pub emission_map: Option<EmissionMap>,
+}
+
+/// glTF's emissive texture: at uv, emitted radiance = `factor` × the texel (colour, decoded
+/// to linear; bilinear, repeating).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct EmissionMap {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// `emissiveFactor` × `KHR_materials_emissive_strength`.
+    pub factor: Vec3,
 }
 
 /// glTF's normal texture: a tangent-space normal per texel, its channels raw in [0, 1] mapped to
@@ -189,6 +204,7 @@ impl Default for Material {
             alpha_mask: None,
             metallic_roughness_map: None,
             normal_map: None,
+            emission_map: None,
         }
     }
 }
@@ -302,6 +318,16 @@ impl Scene {
                 ((map.metallic * texel.z).clamp(0.0, 1.0), (map.roughness * texel.y).clamp(0.0, 1.0))
             }
             None => (m.metallic, m.roughness),
+        }
+    }
+
+    /// Radiance emitted by `material` at `uv` (its front side): its [`EmissionMap`]'s texel ×
+    /// factor where it has one, else the material's emission.
+    pub fn emission(&self, material: u32, uv: Vec2) -> Vec3 {
+        let m = &self.materials[material as usize];
+        match m.emission_map {
+            Some(map) => map.factor * self.textures[map.texture as usize].sample_repeat(uv.x, uv.y),
+            None => m.emission,
         }
     }
 

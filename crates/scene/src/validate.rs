@@ -52,6 +52,7 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
             mat.alpha_mask.and_then(|m| m.texture),
             mat.metallic_roughness_map.map(|m| m.texture),
             mat.normal_map.map(|m| m.texture),
+            mat.emission_map.map(|m| m.texture),
         ];
         if let Some(t) = textures.into_iter().flatten().find(|&t| t as usize >= scene.textures.len()) {
             return Err(invalid(format!("material {mi} '{name}' uses texture {t}, but there are {}", scene.textures.len())));
@@ -63,6 +64,11 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
                 "material {mi} '{name}': alpha mask factor {} and cutoff {} must be finite",
                 mask.factor, mask.cutoff
             )));
+        }
+        if let Some(map) = mat.emission_map
+            && !(is_finite3(map.factor) && map.factor.min_element() >= 0.0)
+        {
+            return Err(invalid(format!("material {mi} '{name}': emission map factor {} must be finite and non-negative", map.factor)));
         }
         if let Some(map) = mat.normal_map
             && !map.scale.is_finite()
@@ -188,10 +194,10 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::{AlphaMask, Material, MetallicRoughnessMap, NormalMap};
+    use crate::{AlphaMask, EmissionMap, Material, MetallicRoughnessMap, NormalMap};
     use glimpse_core::{Image, Vec3};
 
-    /// A material's textures (base colour, alpha mask, metallic-roughness, normal) must exist, and its
+    /// A material's textures (base colour, alpha mask, metallic-roughness, normal, emission) must exist, and its
     /// maps' factors must be in range: a bad index would panic at the first texel read.
     #[test]
     fn material_maps_are_checked() {
@@ -205,6 +211,11 @@ mod tests {
             (Material { alpha_mask: mask(None, f32::NAN), ..plain() }, "alpha mask factor NaN"),
             (Material { normal_map: Some(NormalMap { texture: 4, scale: 1.0 }), ..plain() }, "uses texture 4, but there are 1"),
             (Material { normal_map: Some(NormalMap { texture: 0, scale: f32::INFINITY }), ..plain() }, "normal map scale inf"),
+            (Material { emission_map: Some(EmissionMap { texture: 5, factor: Vec3::ONE }), ..plain() }, "uses texture 5, but there are 1"),
+            (
+                Material { emission_map: Some(EmissionMap { texture: 0, factor: -Vec3::ONE }), ..plain() },
+                "emission map factor [-1, -1, -1]",
+            ),
         ];
         for (material, expected) in cases {
             let mut scene = Scene::default();

@@ -1018,3 +1018,36 @@ fn gltf_normal_texture_is_read_raw_with_its_scale() {
     assert!(scene.materials.iter().all(|m| m.normal_map.is_none()));
     assert!(scene.warnings.iter().any(|w| w.contains("normal textures whose uvs differ")), "{:?}", scene.warnings);
 }
+
+/// An emissive texture (sRGB colour, decoded) × the factor is the emission per texel
+/// ([`Scene::emission`]); the material's own emission is the texture's mean × the factor. On
+/// other uvs than the base colour texture's the mean alone is used, with a warning.
+#[test]
+fn gltf_emissive_texture_is_read_per_texel() {
+    let dir = scratch("gltf_emissive_texture");
+    let path = dir.join("e.png");
+    // 2 × 1: black on the left, white on the right (exact in sRGB).
+    Image::from_fn(2, 1, |x, _| Vec3::splat(x as f32)).write(&path, ToneMap::default()).unwrap();
+    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let json = gltf_json(Some(&uri))
+        .replace(r#""emissiveFactor": [1, 0.5, 0],"#, r#""emissiveFactor": [1, 0.5, 0], "emissiveTexture": {"index": 1},"#)
+        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
+        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    assert!(json.contains("emissiveTexture"));
+    let scene = load(&write(&dir, "e.gltf", json.clone())).unwrap();
+    let mid = scene.meshes[0].material;
+    let m = &scene.materials[mid as usize];
+    let (left, right) = (scene.emission(mid, Vec2::new(0.25, 0.5)), scene.emission(mid, Vec2::new(0.75, 0.5)));
+    println!("emission: material {}, map {:?}, left {left}, right {right}; warnings {:?}", m.emission, m.emission_map, scene.warnings);
+    let factor = Vec3::new(4.0, 2.0, 0.0); // emissiveFactor × emissiveStrength 4
+    assert_eq!(m.emission_map.map(|e| e.factor), Some(factor));
+    assert!((m.emission - factor * 0.5).length() < 1e-5, "the mean × the factor: {}", m.emission);
+    assert!(left.length() < 1e-6 && (right - factor).length() < 1e-5, "{left} {right}");
+    assert!(!scene.warnings.iter().any(|w| w.contains("emissive textures")), "{:?}", scene.warnings);
+    let other_uvs = json.replace(r#""emissiveTexture": {"index": 1}"#, r#""emissiveTexture": {"index": 1, "texCoord": 1}"#);
+    let scene = load(&write(&dir, "e1.gltf", other_uvs)).unwrap();
+    let m = &scene.materials[scene.meshes[0].material as usize];
+    assert!(m.emission_map.is_none() && (m.emission - factor * 0.5).length() < 1e-5, "{m:?}");
+    assert!(scene.warnings.iter().any(|w| w.contains("emissive textures whose uvs differ")), "{:?}", scene.warnings);
+}

@@ -105,6 +105,6 @@ impl SurfacePoint {
 
     /// Emitted radiance towards the ray's origin (area lights emit from their front face only).
     pub fn emission(&self, frame: &SceneFrame) -> Vec3 {
-        if self.front_face { frame.scene.materials[self.material as usize].emission } else { Vec3::ZERO }
+        if self.front_face { frame.scene.emission(self.material, self.uv) } else { Vec3::ZERO }
     }
 }

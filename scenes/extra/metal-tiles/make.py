@@ -1,7 +1,7 @@
 """Writes tiles.gltf: a 4 x 4 m tiled floor and a 0.5 m sphere whose metalness and roughness
 come from glTF metallic-roughness textures (G roughness, B metallic, as real PBR assets store
-them), with the factors left at 1 as exporters leave them, and a normal texture on the floor
-(bevelled grout, domed stone tiles), embedded as data URIs (the repository ignores *.png), for
+them), with the factors left at 1 as exporters leave them, a normal texture on the floor
+(bevelled grout, chiselled stone tiles), and a sign whose emissive texture glows in three bars, embedded as data URIs (the repository ignores *.png), for
 scenes/extra/metal-tiles.toml. Deterministic (no random numbers).
 
 Run from this folder: python3 make.py   (needs numpy and Pillow)"""
@@ -46,6 +46,10 @@ band = (np.floor(v * 6) % 2 == 0)
 sphere_mr = np.stack([0 * u, np.where(band, 0.1, 0.6), band.astype(float)], -1)
 sphere_color = np.where(band[..., None], [0.9, 0.9, 0.92], [0.7, 0.15, 0.1])
 
+# Sign: a glowing panel whose emissive texture is three warm bars on a dark ground (emissive
+# factor 1, strength 6 via KHR_materials_emissive_strength).
+sign_emissive = np.where((np.abs(v - 0.5) < 0.3) & (np.floor(u * 7) % 2 == 1), 1.0, 0.02)[..., None] * [1.0, 0.75, 0.45]
+
 # Floor quad (y = 0), uvs over [0, 1]^2.
 fpos = np.array([[-2, 0, -2], [2, 0, -2], [2, 0, 2], [-2, 0, 2]], np.float32)
 fnrm = np.tile(np.array([0, 1, 0], np.float32), (4, 1))
@@ -67,8 +71,13 @@ for i in range(R):
         if i < R - 1:
             sidx += [a + 1, b, b + 1]
 sidx = np.array(sidx, np.uint32)
+# Sign quad, 0.8 x 0.4 m, standing 0.35 m above the floor's back left, facing +z (its front).
+gpos = np.array([[-1.4, 0.35, -1.2], [-0.6, 0.35, -1.2], [-0.6, 0.75, -1.2], [-1.4, 0.75, -1.2]], np.float32)
+gnrm = np.tile(np.array([0, 0, 1], np.float32), (4, 1))
+guv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
+gidx = np.array([0, 1, 2, 0, 2, 3], np.uint32)
 
-arrays = [fpos, fnrm, fuv, fidx, spos, snrm, suv, sidx]
+arrays = [fpos, fnrm, fuv, fidx, spos, snrm, suv, sidx, gpos, gnrm, guv, gidx]
 views, buf = [], b""
 for a in arrays:
     views.append({"buffer": 0, "byteOffset": len(buf), "byteLength": a.nbytes})
@@ -78,7 +87,7 @@ accessors = []
 for k, a in enumerate(arrays):
     acc = {"bufferView": k, "componentType": 5125 if a.dtype == np.uint32 else 5126,
            "count": a.size if a.ndim == 1 else len(a), "type": kind[1 if a.ndim == 1 else a.shape[1]]}
-    if k in (0, 4):
+    if k in (0, 4, 8):
         acc["min"], acc["max"] = a.min(0).tolist(), a.max(0).tolist()
     accessors.append(acc)
 
@@ -95,19 +104,24 @@ def material(name, color_tex, mr_tex, normal_tex=None):
 gltf = {
     "asset": {"version": "2.0", "generator": "glimpse scenes/extra/metal-tiles/make.py"},
     "scene": 0,
-    "scenes": [{"nodes": [0, 1]}],
-    "nodes": [{"name": "floor", "mesh": 0}, {"name": "sphere", "mesh": 1}],
+    "scenes": [{"nodes": [0, 1, 2]}],
+    "nodes": [{"name": "floor", "mesh": 0}, {"name": "sphere", "mesh": 1}, {"name": "sign", "mesh": 2}],
     "meshes": [
         {"name": "floor", "primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0}]},
         {"name": "sphere", "primitives": [{"attributes": {"POSITION": 4, "NORMAL": 5, "TEXCOORD_0": 6}, "indices": 7, "material": 1}]},
+        {"name": "sign", "primitives": [{"attributes": {"POSITION": 8, "NORMAL": 9, "TEXCOORD_0": 10}, "indices": 11, "material": 2}]},
     ],
-    "materials": [material("tiles", 0, 1, 4), material("bands", 2, 3)],
-    "textures": [{"source": k} for k in range(5)],
-    "images": [{"uri": png_uri(t)} for t in (floor_color, floor_mr, sphere_color, sphere_mr, floor_normal)],
+    "materials": [material("tiles", 0, 1, 4), material("bands", 2, 3),
+                  {"name": "sign", "pbrMetallicRoughness": {"baseColorFactor": [0.05, 0.05, 0.05, 1], "metallicFactor": 0},
+                   "emissiveFactor": [1, 1, 1], "emissiveTexture": {"index": 5},
+                   "extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": 6}}}],
+    "extensionsUsed": ["KHR_materials_emissive_strength"],
+    "textures": [{"source": k} for k in range(6)],
+    "images": [{"uri": png_uri(t)} for t in (floor_color, floor_mr, sphere_color, sphere_mr, floor_normal, sign_emissive)],
     "buffers": [{"byteLength": len(buf), "uri": "data:application/octet-stream;base64," + base64.b64encode(buf).decode()}],
     "bufferViews": views,
     "accessors": accessors,
 }
 with open("tiles.gltf", "w") as f:
     json.dump(gltf, f, indent=1)
-print(f"{(len(fidx) + len(sidx)) // 3} triangles; floor metal {metal.mean():.3f}, sphere metal {band.mean():.3f}")
+print(f"{(len(fidx) + len(sidx) + len(gidx)) // 3} triangles; floor metal {metal.mean():.3f}, sphere metal {band.mean():.3f}")
