@@ -33,6 +33,7 @@ SCENES = {
     "conductor": os.path.join(HERE, "scenes", "conductor.xml"),
     "envmap": os.path.join(HERE, "scenes", "envmap.xml"),
     "lights": os.path.join(HERE, "scenes", "lights.xml"),
+    "textures": os.path.join(HERE, "scenes", "textures.xml"),
 }
 
 # glimpse parameters per scene (none needed: Mitsuba's `diffuse` loads as the Lambertian

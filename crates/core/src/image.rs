@@ -104,8 +104,17 @@ impl Image {
 
     /// Reads an `.exr`, `.hdr` or `.png` (sRGB-decoded to linear) file.
     pub fn read(path: &Path) -> Result<Image, ImageError> {
+        Self::read_decoded(path, true)
+    }
+
+    /// Reads a data texture (a normal map): its channels raw, an 8-bit PNG's not sRGB-decoded.
+    pub fn read_raw(path: &Path) -> Result<Image, ImageError> {
+        Self::read_decoded(path, false)
+    }
+
+    fn read_decoded(path: &Path, decode_srgb: bool) -> Result<Image, ImageError> {
         let (dynamic, ext) = Self::decode(path)?;
-        let srgb = matches!(ext.as_str(), "png" | "jpg" | "jpeg");
+        let srgb = decode_srgb && matches!(ext.as_str(), "png" | "jpg" | "jpeg");
         let rgb = dynamic.into_rgb32f();
         let (width, height) = rgb.dimensions();
         let pixels = rgb

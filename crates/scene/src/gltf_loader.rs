@@ -3,7 +3,7 @@
 //!
 //! What becomes what:
 //! * Meshes: each triangles-mode primitive becomes one [`Mesh`] with one material (POSITION,
-//!   NORMAL, TEXCOORD_0, indices). Other modes (points, lines, strips, fans) are skipped with a
+//!   NORMAL, TEXCOORD_0, COLOR_0 as a linear factor of the base colour, indices). Other modes (points, lines, strips, fans) are skipped with a
 //!   warning. Primitives are converted once per glTF mesh and shared by every node using it.
 //! * Nodes: the hierarchy is flattened; every node with a mesh adds one [`Instance`] per
 //!   primitive with the node's world transform (`parent · T · R · S`).
@@ -50,8 +50,8 @@
 
 use crate::obj_loader::guard;
 use crate::{
-    AlphaMask, Camera, EmissionMap, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap, Scene,
-    SceneError, Transform, TransformKey,
+    AlphaMask, Bitangent, Camera, EmissionMap, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap,
+    Scene, SceneError, Transform, TransformKey,
 };
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
@@ -500,6 +500,9 @@ impl<'a> Loader<'a> {
                 prim.get(&gltf::Semantic::Normals).map(|a| self.check_accessor(&a, &[DataType::F32], Dimensions::Vec3).is_ok());
             let uv_types = [DataType::F32, DataType::U8, DataType::U16];
             let uvs_ok = prim.get(&gltf::Semantic::TexCoords(0)).map(|a| self.check_accessor(&a, &uv_types, Dimensions::Vec2).is_ok());
+            let colors_ok = prim
+                .get(&gltf::Semantic::Colors(0))
+                .map(|a| [Dimensions::Vec3, Dimensions::Vec4].into_iter().any(|d| self.check_accessor(&a, &uv_types, d).is_ok()));
             if let Some(idx) = prim.indices() {
                 self.check_accessor(&idx, &[DataType::U8, DataType::U16, DataType::U32], Dimensions::Scalar)
                     .map_err(|m| err(format!("indices: {m}")))?;
@@ -518,6 +521,11 @@ impl<'a> Loader<'a> {
                 Some(it) => it.into_f32().map(Vec2::from_array).collect(),
                 None => Vec::new(),
             };
+            // COLOR_0 is linear RGB(A), a factor of the base colour (alpha ignored).
+            let mut colors: Vec<Vec3> = match colors_ok.and_then(|ok| ok.then(|| reader.read_colors(0)).flatten()) {
+                Some(it) => it.into_rgb_f32().map(Vec3::from_array).collect(),
+                None => Vec::new(),
+            };
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(it) => it.into_u32().collect(),
                 None if prim.indices().is_some() => return Err(outside("index")),
@@ -532,11 +540,15 @@ impl<'a> Loader<'a> {
                 uvs.clear();
                 dropped.push("texture coordinates");
             }
+            if !colors.is_empty() && colors.len() != positions.len() {
+                colors.clear();
+                dropped.push("colours");
+            }
             if !dropped.is_empty() {
                 self.warn(format!("{what}: {} do not match the vertex count; dropped", dropped.join(" and ")));
             }
-            if normals_ok == Some(false) || uvs_ok == Some(false) {
-                self.ignore("NORMAL or TEXCOORD_0 accessors of an unexpected type or size");
+            if normals_ok == Some(false) || uvs_ok == Some(false) || colors_ok == Some(false) {
+                self.ignore("NORMAL, TEXCOORD_0 or COLOR_0 accessors of an unexpected type or size");
             }
             let material = self.material(prim.material())?;
             if let Some(transform) = self.base_color_uv_transform(&prim.material()) {
@@ -547,7 +559,7 @@ impl<'a> Loader<'a> {
                 None => what.clone(),
             };
             let indices = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-            self.scene.meshes.push(Mesh { name, positions, normals, uvs, indices, material, deformation: None });
+            self.scene.meshes.push(Mesh { name, positions, normals, uvs, colors, indices, material, deformation: None });
             ids.push(self.scene.meshes.len() as u32 - 1);
         }
         self.meshes.insert(mesh.index(), ids.clone());
@@ -624,7 +636,9 @@ impl<'a> Loader<'a> {
             if let Some(normal) = m.normal_texture() {
                 let same_uvs = normal.tex_coord() == 0 && self.same_transform(index, &["normalTexture"]);
                 match self.data_texture(normal.texture().source())? {
-                    Some(texture) if same_uvs => mat.normal_map = Some(NormalMap { texture, scale: normal.scale() }),
+                    Some(texture) if same_uvs => {
+                        mat.normal_map = Some(NormalMap { texture, scale: normal.scale(), bitangent: Bitangent::ImageUp })
+                    }
                     Some(_) => self.ignore("normal textures whose uvs differ from the base colour texture's"),
                     None => {}
                 }

@@ -7,10 +7,11 @@
 //!   sampler `sample_count` → [`crate::RenderHints`];
 //! - `path` integrator `max_depth` → [`crate::RenderHints::max_depth`] (Mitsuba counts path segments,
 //!   glimpse scattering vertices: glimpse = Mitsuba − 1; −1 stays unbounded);
-//! - BSDFs `diffuse`, `conductor`, `roughconductor` (GGX), `dielectric`, `twosided` around one
-//!   of them; `rgb`, `spectrum` (one value), `float` or `bitmap` texture reflectance;
+//! - BSDFs `diffuse`, `conductor`, `roughconductor` (GGX), `dielectric`, `twosided` or
+//!   `normalmap` (a raw bitmap, [`NormalMap`]) around one of them; `rgb`, `spectrum` (one
+//!   value), `float` or `bitmap` texture reflectance (`raw` or sRGB-decoded);
 //! - shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`, a BSDF (nested or
-//!   `ref`) and an `area` emitter;
+//!   `ref`) and an `area` emitter (its radiance a colour or a bitmap, [`EmissionMap`]);
 //! - emitters `point`, `spot`, `directional`, `envmap`, `constant`;
 //! - `ref` ids to BSDFs and textures.
 //!
@@ -21,8 +22,8 @@
 //! as scene warnings.
 
 use crate::builtin::{box_mesh, sphere_mesh};
-use crate::obj_loader::TextureCache;
-use crate::{Camera, Environment, Light, Material, MaterialModel, Mesh, Scene, SceneError};
+use crate::obj_loader::{TextureCache, TextureRead};
+use crate::{Bitangent, Camera, EmissionMap, Environment, Light, Material, MaterialModel, Mesh, NormalMap, Scene, SceneError};
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
@@ -560,20 +561,22 @@ impl<'a, 'input> Loader<'a, 'input> {
         if kind != "bitmap" {
             return Err(self.unsupported(node, format!("texture '{kind}' (only 'bitmap' is supported)")));
         }
-        let mut file = None;
+        let (mut file, mut raw) = (None, false);
         for c in elements(node) {
             match (c.tag_name().name(), self.attr(c, "name")?.as_deref()) {
                 ("string", Some("filename")) => file = Some(self.file(c)?),
                 ("string", Some("filter_type")) if self.required(c, "value")? == "bilinear" => {}
                 ("string", Some("wrap_mode")) if self.required(c, "value")? == "repeat" => {}
-                ("boolean", Some("raw")) if !self.boolean(c)? => {}
+                // Raw: 8-bit values taken as they are (a normal map), not sRGB-decoded.
+                ("boolean", Some("raw")) => raw = self.boolean(c)?,
                 _ => return Err(self.unknown_child(c, node)),
             }
         }
         let file = file.ok_or_else(|| self.malformed(node, "needs <string name=\"filename\">"))?;
         let path = self.path.to_owned();
         let before = self.scene.warnings.len();
-        let id = self.texture_cache.load(&file, &mut self.scene, &path);
+        let how = if raw { TextureRead::Raw } else { TextureRead::Colour };
+        let id = self.texture_cache.load_as(&file, how, &mut self.scene, &path);
         // A texture that does not load is an error here (Mitsuba refuses the scene too).
         id.ok_or_else(|| {
             let why = self.scene.warnings.get(before).cloned().unwrap_or_default();
@@ -597,6 +600,25 @@ impl<'a, 'input> Loader<'a, 'input> {
                 }
                 let mut def = self.bsdf(b)?;
                 def.material.name = m.name;
+                return Ok(def);
+            }
+            "normalmap" => {
+                // Mitsuba's normal map: a raw bitmap's tangent-space normal in the frame of
+                // dp/du and the shading normal, around one nested BSDF ([`NormalMap`]).
+                let (mut texture, mut inner) = (None, None);
+                for c in elements(node) {
+                    match (c.tag_name().name(), self.attr(c, "name")?.as_deref()) {
+                        ("texture", Some("normalmap")) => texture = Some(self.texture(c)?),
+                        ("bsdf", _) if inner.is_none() => inner = Some(c),
+                        _ => return Err(self.unknown_child(c, node)),
+                    }
+                }
+                let (Some(texture), Some(inner)) = (texture, inner) else {
+                    return Err(self.malformed(node, "normalmap needs a <texture name=\"normalmap\"> and one <bsdf>"));
+                };
+                let mut def = self.bsdf(inner)?;
+                def.material.name = m.name;
+                def.material.normal_map = Some(NormalMap { texture, scale: 1.0, bitangent: Bitangent::NormalCrossTangent });
                 return Ok(def);
             }
             "diffuse" => {
@@ -720,10 +742,11 @@ impl<'a, 'input> Loader<'a, 'input> {
                     if et != "area" {
                         return Err(self.unsupported(c, format!("emitter '{et}' inside a shape (only 'area')")));
                     }
-                    let mut radiance = Vec3::ONE;
+                    let mut radiance = (Vec3::ONE, None);
                     for r in elements(c) {
                         match self.attr(r, "name")?.as_deref() {
-                            Some("radiance") => radiance = self.color(r)?,
+                            // A bitmap: the radiance per texel ([`EmissionMap`]).
+                            Some("radiance") => radiance = self.color_or_texture(r)?,
                             _ => return Err(self.unknown_child(r, c)),
                         }
                     }
@@ -784,16 +807,27 @@ impl<'a, 'input> Loader<'a, 'input> {
 
     /// The shape's material index: a referenced BSDF's shared one, or a new one (inline BSDFs,
     /// emitters, Mitsuba's default diffuse 0.5).
-    fn shape_material(&mut self, bsdf: Option<(BsdfDef, Option<String>)>, emission: Option<Vec3>, kind: &str, node: Node) -> u32 {
+    fn shape_material(
+        &mut self,
+        bsdf: Option<(BsdfDef, Option<String>)>,
+        emission: Option<(Vec3, Option<u32>)>,
+        kind: &str,
+        node: Node,
+    ) -> u32 {
         let (def, id) = bsdf.unwrap_or_else(|| {
             let mut m =
                 Material { name: format!("{kind} (line {}) default", self.line(node)), base_color: Vec3::splat(0.5), ..Default::default() };
             m.set_lambertian();
             (BsdfDef { material: m }, None)
         });
-        if let Some(e) = emission {
+        if let Some((e, texture)) = emission {
             let mut m = def.material;
             m.emission = e;
+            if let Some(texture) = texture {
+                // The material's own emission is the texture's mean (the light selection's weight).
+                m.emission = e * self.scene.textures[texture as usize].mean();
+                m.emission_map = Some(EmissionMap { texture, factor: e });
+            }
             return self.scene.add_material(m);
         }
         match id {

@@ -13,6 +13,10 @@ pub struct Mesh {
     /// Per-vertex texture coordinates (glTF convention: v = 0 is the image's top row): empty, or
     /// one per position.
     pub uvs: Vec<Vec2>,
+    /// Per-vertex colours (linear RGB) multiplying the material's base colour, as glTF's
+    /// `COLOR_0`, PLY's red/green/blue and OBJ's `v x y z r g b` define it: empty, or one per
+    /// position.
+    pub colors: Vec<Vec3>,
     pub indices: Vec<[u32; 3]>,
     pub material: u32,
     /// Vertex animation; `None` for a rigid mesh.
@@ -125,28 +129,40 @@ pub struct EmissionMap {
     pub factor: Vec3,
 }
 
-/// glTF's normal texture: a tangent-space normal per texel, its channels raw in [0, 1] mapped to
-/// [−1, 1], x and y × `scale`, renormalized (the spec's `scaledNormal`).
+/// A normal texture (glTF's, Mitsuba's `normalmap`): a tangent-space normal per texel, its
+/// channels raw in [0, 1] mapped to [−1, 1], x and y × `scale`, renormalized (glTF's
+/// `scaledNormal`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct NormalMap {
     /// Index into [`Scene::textures`].
     pub texture: u32,
     pub scale: f32,
+    pub bitangent: Bitangent,
+}
+
+/// Which way a normal texture's +y points on the surface: the formats differ on uv mappings
+/// that are mirrored in the image.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Bitangent {
+    /// glTF (its tangents' sign, as MikkTSpace computes it): the image's up, whatever the
+    /// mapping's orientation: B = n × T, turned to run against dp/dv (v = 0 is the top row).
+    ImageUp,
+    /// Mitsuba 3 (and pbrt-v4): B = n × T, whatever the mapping (Mitsuba's `normalmap`;
+    /// measured against Mitsuba by tools/crosscheck's `textures` scene).
+    NormalCrossTangent,
 }
 
 impl NormalMap {
     /// The shading normal at `uv` of a surface whose interpolated normal is `n` (unit, on the
     /// triangle's front side) and whose position moves by `dpdu`, `dpdv` per unit of u and v;
-    /// `None` where the uvs do not span the surface. The tangent frame is pbrt-v4's
-    /// (`NormalMap` in its textures): T = dp/du made orthogonal to `n`, B = n × T, with B's sign
-    /// chosen against dp/dv: the texture's +y is the image's up and v = 0 its top row (glTF's
-    /// convention, which our uvs use), and a mirrored uv mapping flips it, as glTF's tangent
-    /// sign does. The frame is the triangle's, not MikkTSpace's per-vertex tangents; on a
-    /// mapping without shear they agree.
+    /// `None` where the uvs do not span the surface. The tangent frame is pbrt-v4's and
+    /// Mitsuba's: T = dp/du made orthogonal to `n`, B = n × T, its sign as [`Bitangent`] says
+    /// (v = 0 is the image's top row, glTF's convention, which our uvs use). The frame is the
+    /// triangle's, not MikkTSpace's per-vertex tangents; on a mapping without shear they agree.
     pub fn perturb(&self, texture: &Image, uv: Vec2, n: Vec3, dpdu: Vec3, dpdv: Vec3) -> Option<Vec3> {
         let t = (dpdu - n * n.dot(dpdu)).try_normalize()?;
         let b = n.cross(t);
-        let b = if b.dot(dpdv) > 0.0 { -b } else { b };
+        let b = if self.bitangent == Bitangent::ImageUp && b.dot(dpdv) > 0.0 { -b } else { b };
         let c = texture.sample_repeat(uv.x, uv.y) * 2.0 - Vec3::ONE;
         (t * (c.x * self.scale) + b * (c.y * self.scale) + n * c.z).try_normalize()
     }
@@ -329,6 +345,13 @@ impl Scene {
             Some(map) => map.factor * self.textures[map.texture as usize].sample_repeat(uv.x, uv.y),
             None => m.emission,
         }
+    }
+
+    /// Whether `material`'s base colour varies over its surfaces: a base colour texture, or
+    /// vertex colours on a mesh that uses it.
+    pub fn base_color_varies(&self, material: u32) -> bool {
+        self.materials[material as usize].base_color_texture.is_some()
+            || self.meshes.iter().any(|m| m.material == material && !m.colors.is_empty())
     }
 
     /// Whether the surface of `material` is a hole at `uv` ([`AlphaMask`]).

@@ -8,6 +8,8 @@
 //!   lines (`p`, `l`, faces with fewer than 3 vertices) are not surfaces: they are dropped with a
 //!   warning that counts them.
 //! * Texture coordinates: OBJ's v runs up the image, ours down (glTF convention), so `v = 1 − v`.
+//! * Vertex colours (`v x y z r g b`, the common extension) multiply the base colour; they are
+//!   sRGB-decoded (the tools that write them, MeshLab and scanners, store display colours).
 //! * Normals are kept when every vertex of the model has one; a model where only some faces
 //!   carry `vn` gets none (warning), and consumers compute them.
 //! * Materials (MTL):
@@ -40,6 +42,7 @@
 
 use crate::{AlphaMask, Material, Mesh, Scene, SceneError};
 use glimpse_core::bounded_read::{limit, read_bounded};
+use glimpse_core::image::srgb_decode;
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use std::cell::RefCell;
 use std::collections::{BTreeSet, HashMap};
@@ -132,13 +135,18 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             uvs.clear();
             partial_attributes += 1;
         }
+        let mut colors: Vec<Vec3> = m.vertex_color.chunks_exact(3).map(|c| Vec3::new(c[0], c[1], c[2]).map(srgb_decode)).collect();
+        if colors.len() != vertices && !colors.is_empty() {
+            colors.clear();
+            partial_attributes += 1;
+        }
         let indices = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        let mesh = Mesh { name: model.name, positions, normals, uvs, indices, material, deformation: None };
+        let mesh = Mesh { name: model.name, positions, normals, uvs, colors, indices, material, deformation: None };
         scene.add_mesh(mesh, Mat4::IDENTITY);
     }
     if partial_attributes > 0 {
         scene.warnings.push(format!(
-            "{source}: {partial_attributes} normal or texture-coordinate sets cover only some faces of their object and were dropped"
+            "{source}: {partial_attributes} normal, texture-coordinate or colour sets cover only some faces of their object and were dropped"
         ));
     }
     if scene.meshes.is_empty() {
@@ -344,30 +352,43 @@ pub fn roughness_from_ns(ns: f32) -> f32 {
     (2.0 / (ns.max(0.0) + 2.0)).powf(0.25).clamp(0.0, 1.0)
 }
 
-/// Loads each texture file once into [`Scene::textures`] (once as colour, once as coverage);
-/// a file that cannot be read is a warning naming it.
+/// How a texture file is read: colour (sRGB-decoded), coverage ([`Image::read_coverage`]) or
+/// raw data ([`Image::read_raw`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub(crate) enum TextureRead {
+    Colour,
+    Coverage,
+    Raw,
+}
+
+/// Loads each texture file once per [`TextureRead`] into [`Scene::textures`]; a file that
+/// cannot be read is a warning naming it.
 #[derive(Default)]
 pub(crate) struct TextureCache {
-    by_path: HashMap<(PathBuf, bool), Option<u32>>,
+    by_path: HashMap<(PathBuf, TextureRead), Option<u32>>,
 }
 
 impl TextureCache {
     /// The texture's index in `scene.textures`, or `None` (with a warning) when it cannot be read.
     pub(crate) fn load(&mut self, path: &Path, scene: &mut Scene, referrer: &Path) -> Option<u32> {
-        self.load_as(path, false, scene, referrer)
+        self.load_as(path, TextureRead::Colour, scene, referrer)
     }
 
     /// [`TextureCache::load`] of a coverage texture ([`Image::read_coverage`]).
     pub(crate) fn load_coverage(&mut self, path: &Path, scene: &mut Scene, referrer: &Path) -> Option<u32> {
-        self.load_as(path, true, scene, referrer)
+        self.load_as(path, TextureRead::Coverage, scene, referrer)
     }
 
-    fn load_as(&mut self, path: &Path, coverage: bool, scene: &mut Scene, referrer: &Path) -> Option<u32> {
-        let key = (path.to_owned(), coverage);
+    pub(crate) fn load_as(&mut self, path: &Path, how: TextureRead, scene: &mut Scene, referrer: &Path) -> Option<u32> {
+        let key = (path.to_owned(), how);
         if let Some(&id) = self.by_path.get(&key) {
             return id;
         }
-        let read = if coverage { Image::read_coverage(path) } else { Image::read(path) };
+        let read = match how {
+            TextureRead::Colour => Image::read(path),
+            TextureRead::Coverage => Image::read_coverage(path),
+            TextureRead::Raw => Image::read_raw(path),
+        };
         let id = match read {
             Ok(img) => {
                 scene.textures.push(img);

@@ -1,7 +1,9 @@
 //! PLY meshes (ASCII, binary little- and big-endian) through `ply-rs-bw`: positions (`x y z`),
-//! optional normals (`nx ny nz`) and texture coordinates (`u v`, `s t` or `texture_u texture_v`),
-//! and faces (`vertex_indices` or `vertex_index`) of three or more vertices, fanned into
-//! triangles. Other elements and properties (colours, edges) are read past and ignored.
+//! optional normals (`nx ny nz`), texture coordinates (`u v`, `s t` or `texture_u texture_v`)
+//! and vertex colours (`red green blue`: 8- or 16-bit integers scaled to [0, 1], floats as they
+//! are; sRGB-decoded, since scanners and MeshLab write display colours), and faces
+//! (`vertex_indices` or `vertex_index`) of three or more vertices, fanned into triangles. Other
+//! elements and properties (alpha, edges) are read past and ignored.
 //!
 //! Before anything is allocated, the element counts of the header are checked against the bytes
 //! that follow it (a binary element has a known minimum size; an ASCII one takes at least two
@@ -9,6 +11,7 @@
 //! not an allocation of whatever the header says.
 
 use crate::{Material, Mesh, Scene, SceneError};
+use glimpse_core::image::srgb_decode;
 use glimpse_core::{Mat4, Vec2, Vec3};
 use ply_rs_bw::parser::{Parser, Reader};
 use ply_rs_bw::ply::{ElementDef, Encoding, Header, Property, PropertyAccess, PropertyAccessResult, PropertyType, ScalarType};
@@ -55,8 +58,12 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     let vertices = payload.get("vertex").map(Vec::as_slice).unwrap_or_default();
     let has_uvs = [("u", "v"), ("s", "t"), ("texture_u", "texture_v")].into_iter().any(|(u, v)| has(u) && has(v));
     let has_normals = has("nx") && has("ny") && has("nz");
+    let has_colors = has("red") && has("green") && has("blue");
     for v in vertices {
-        let [x, y, z, nx, ny, nz, u, w] = v.values;
+        let [x, y, z, nx, ny, nz, u, w, r, g, b] = v.values;
+        if has_colors {
+            mesh.colors.push(Vec3::new(r, g, b).map(srgb_decode));
+        }
         mesh.positions.push(Vec3::new(x, y, z));
         if has_normals {
             mesh.normals.push(Vec3::new(nx, ny, nz));
@@ -91,15 +98,15 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
 /// One element of any kind, kept compact (a map per vertex would cost ~10× the memory): the
 /// vertex slots glimpse reads and a face's index list; other properties are dropped as read.
 struct Element {
-    /// x, y, z, nx, ny, nz, u, v.
-    values: [f32; 8],
+    /// x, y, z, nx, ny, nz, u, v, red, green, blue.
+    values: [f32; 11],
     /// The face's vertex indices, or why they cannot be used.
     indices: Result<Vec<u32>, &'static str>,
 }
 
 impl PropertyAccess for Element {
     fn new() -> Self {
-        Self { values: [0.0; 8], indices: Err("no 'vertex_indices' list") }
+        Self { values: [0.0; 11], indices: Err("no 'vertex_indices' list") }
     }
 
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
@@ -112,6 +119,23 @@ impl PropertyAccess for Element {
             "nz" => 5,
             "u" | "s" | "texture_u" => 6,
             "v" | "t" | "texture_v" => 7,
+            "red" | "green" | "blue" => {
+                let slot = match name {
+                    "red" => 8,
+                    "green" => 9,
+                    _ => 10,
+                };
+                // Integer colours span their type's range; float ones are in [0, 1].
+                self.values[slot] = match property {
+                    Property::UChar(c) => c as f32 / 255.0,
+                    Property::UShort(c) => c as f32 / 65535.0,
+                    other => match other.to_f32_lossy() {
+                        Some(c) => c,
+                        None => return PropertyAccessResult::UnsupportedType,
+                    },
+                };
+                return PropertyAccessResult::Set;
+            }
             "vertex_indices" | "vertex_index" => {
                 self.indices = property.to_u32_list().ok_or("vertex indices must be a list of non-negative integers");
                 return PropertyAccessResult::Set;

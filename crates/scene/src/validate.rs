@@ -99,8 +99,14 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if !mesh.uvs.is_empty() && mesh.uvs.len() != mesh.positions.len() {
             return Err(invalid(format!("{name}: {} texture coordinates for {} vertices", mesh.uvs.len(), mesh.positions.len())));
         }
+        if !mesh.colors.is_empty() && mesh.colors.len() != mesh.positions.len() {
+            return Err(invalid(format!("{name}: {} vertex colours for {} vertices", mesh.colors.len(), mesh.positions.len())));
+        }
         if mesh.normals.iter().any(|n| !is_finite3(*n)) || mesh.uvs.iter().any(|uv| !uv.is_finite()) {
             return Err(invalid(format!("{name}: a normal or texture coordinate is NaN or infinite")));
+        }
+        if mesh.colors.iter().any(|c| !is_finite3(*c) || c.min_element() < 0.0) {
+            return Err(invalid(format!("{name}: a vertex colour is NaN, infinite or negative")));
         }
         let n = mesh.positions.len() as u32;
         if let Some(t) = mesh.indices.iter().find(|t| t.iter().any(|&i| i >= n)) {
@@ -209,8 +215,17 @@ mod tests {
             (Material { alpha_mask: mask(Some(2), 1.0), ..plain() }, "uses texture 2, but there are 1"),
             (Material { metallic_roughness_map: map(0, 1.5), ..plain() }, "metallic-roughness factors 1.5 and 1"),
             (Material { alpha_mask: mask(None, f32::NAN), ..plain() }, "alpha mask factor NaN"),
-            (Material { normal_map: Some(NormalMap { texture: 4, scale: 1.0 }), ..plain() }, "uses texture 4, but there are 1"),
-            (Material { normal_map: Some(NormalMap { texture: 0, scale: f32::INFINITY }), ..plain() }, "normal map scale inf"),
+            (
+                Material { normal_map: Some(NormalMap { texture: 4, scale: 1.0, bitangent: crate::Bitangent::ImageUp }), ..plain() },
+                "uses texture 4, but there are 1",
+            ),
+            (
+                Material {
+                    normal_map: Some(NormalMap { texture: 0, scale: f32::INFINITY, bitangent: crate::Bitangent::ImageUp }),
+                    ..plain()
+                },
+                "normal map scale inf",
+            ),
             (Material { emission_map: Some(EmissionMap { texture: 5, factor: Vec3::ONE }), ..plain() }, "uses texture 5, but there are 1"),
             (
                 Material { emission_map: Some(EmissionMap { texture: 0, factor: -Vec3::ONE }), ..plain() },

@@ -1051,3 +1051,33 @@ fn gltf_emissive_texture_is_read_per_texel() {
     assert!(m.emission_map.is_none() && (m.emission - factor * 0.5).length() < 1e-5, "{m:?}");
     assert!(scene.warnings.iter().any(|w| w.contains("emissive textures whose uvs differ")), "{:?}", scene.warnings);
 }
+
+/// Vertex colours multiply the base colour: glTF's COLOR_0 (linear), OBJ's `v x y z r g b` and
+/// PLY's red/green/blue (display colours, sRGB-decoded); a material on a coloured mesh varies.
+#[test]
+fn vertex_colours_are_read_from_gltf_obj_and_ply() {
+    let dir = scratch("vertex_colours");
+    // glTF: the normals' accessor, (0, 0, 1) at each vertex, read again as COLOR_0.
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    let json = gltf_json(Some(&uri)).replace(r#""NORMAL": 1, "TEXCOORD_0": 2"#, r#""NORMAL": 1, "COLOR_0": 1, "TEXCOORD_0": 2"#);
+    assert!(json.contains("COLOR_0"));
+    let scene = load(&write(&dir, "c.gltf", json)).unwrap();
+    println!("glTF colours {:?}", scene.meshes[0].colors);
+    assert_eq!(scene.meshes[0].colors, vec![Vec3::Z; 3]);
+    assert!(scene.base_color_varies(scene.meshes[0].material));
+
+    let obj = "v 0 0 0 1 0.5 0\nv 1 0 0 1 0.5 0\nv 0 1 0 1 0.5 0\nf 1 2 3\n";
+    let scene = load(&write(&dir, "c.obj", obj)).unwrap();
+    let half = glimpse_core::image::srgb_decode(0.5);
+    println!("OBJ colours {:?}", scene.meshes[0].colors);
+    assert_eq!(scene.meshes[0].colors, vec![Vec3::new(1.0, half, 0.0); 3]);
+    let plain = load(&write(&dir, "p.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")).unwrap();
+    assert!(plain.meshes[0].colors.is_empty() && !plain.base_color_varies(plain.meshes[0].material));
+
+    let ply = "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+        property uchar red\nproperty uchar green\nproperty uchar blue\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n\
+        0 0 0 255 0 0\n1 0 0 0 255 0\n0 1 0 0 0 255\n3 0 1 2\n";
+    let scene = load(&write(&dir, "c.ply", ply)).unwrap();
+    println!("PLY colours {:?}", scene.meshes[0].colors);
+    assert_eq!(scene.meshes[0].colors, vec![Vec3::X, Vec3::Y, Vec3::Z]);
+}

@@ -21,6 +21,8 @@ pub struct SurfacePoint {
     pub shading_normal: Vec3,
     pub front_face: bool,
     pub uv: Vec2,
+    /// The mesh's vertex colour here (1 where it has none), a factor of the base colour.
+    pub color: Vec3,
     pub material: u32,
     pub instance: u32,
     pub triangle: u32,
@@ -61,6 +63,8 @@ impl SurfacePoint {
         let normal = if front_face { raw } else { -raw };
         let uv =
             if mesh.uvs.is_empty() { Vec2::new(hit.b1, hit.b2) } else { mesh.uvs[i0] * b0 + mesh.uvs[i1] * hit.b1 + mesh.uvs[i2] * hit.b2 };
+        let color =
+            if mesh.colors.is_empty() { Vec3::ONE } else { mesh.colors[i0] * b0 + mesh.colors[i1] * hit.b1 + mesh.colors[i2] * hit.b2 };
         let normals = &frame.normals[inst.mesh as usize];
         let authored = if normals.is_empty() {
             raw
@@ -87,6 +91,7 @@ impl SurfacePoint {
             shading_normal,
             front_face,
             uv,
+            color,
             material: mesh.material,
             instance: hit.instance,
             triangle: hit.triangle,
@@ -98,9 +103,9 @@ impl SurfacePoint {
         Ray::spawn(self.position, self.normal, self.error_scale, dir)
     }
 
-    /// Diffuse albedo: base colour × texture.
+    /// Diffuse albedo: base colour × texture × vertex colour.
     pub fn base_color(&self, frame: &SceneFrame) -> Vec3 {
-        frame.scene.base_color(self.material, self.uv)
+        frame.scene.base_color(self.material, self.uv) * self.color
     }
 
     /// Emitted radiance towards the ray's origin (area lights emit from their front face only).

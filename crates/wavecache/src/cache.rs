@@ -729,7 +729,7 @@ impl BrdfPlan {
             colours.entry(colourless(mi)).or_default().insert(format!("{:?}", m.base_color));
         }
         let plan = |mi: usize| {
-            let textured = scene.materials[mi].base_color_texture.is_some();
+            let textured = scene.base_color_varies(mi as u32);
             if textured || (share_colours && colours[&colourless(mi)].len() > 1) { TablePlan::WhiteAndBlack } else { TablePlan::Own }
         };
         let tables = (0..scene.materials.len()).map(|mi| glossy_used[mi].then(|| plan(mi))).collect();
@@ -929,6 +929,7 @@ pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
         h.f32s(frame.positions[k].iter().flat_map(|v| v.to_array()));
         h.f32s(frame.normals[k].iter().flat_map(|v| v.to_array()));
         h.f32s(m.uvs.iter().flat_map(|v| v.to_array()));
+        h.f32s(m.colors.iter().flat_map(|v| v.to_array()));
         for t in &m.indices {
             h.bytes(bytemuck::cast_slice(t));
         }

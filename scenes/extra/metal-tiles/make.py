@@ -1,7 +1,7 @@
 """Writes tiles.gltf: a 4 x 4 m tiled floor and a 0.5 m sphere whose metalness and roughness
 come from glTF metallic-roughness textures (G roughness, B metallic, as real PBR assets store
 them), with the factors left at 1 as exporters leave them, a normal texture on the floor
-(bevelled grout, chiselled stone tiles), and a sign whose emissive texture glows in three bars, embedded as data URIs (the repository ignores *.png), for
+(bevelled grout, chiselled stone tiles), vertex colours on the sphere, and a sign whose emissive texture glows in three bars, embedded as data URIs (the repository ignores *.png), for
 scenes/extra/metal-tiles.toml. Deterministic (no random numbers).
 
 Run from this folder: python3 make.py   (needs numpy and Pillow)"""
@@ -62,6 +62,9 @@ n = np.stack([np.sin(th) * np.cos(ph), np.cos(th), -np.sin(th) * np.sin(ph)], -1
 spos = (0.5 * n + [0.3, 0.5, -0.2]).astype(np.float32)
 snrm = n.astype(np.float32)
 suv = np.stack([ph / (2 * np.pi), th / np.pi], -1).reshape(-1, 2).astype(np.float32)
+# Vertex colours (COLOR_0, linear, a factor of the base colour): warm at the top, cool below.
+t = ((n[:, 1] + 1) / 2)[:, None]
+scol = (t * [1.0, 0.85, 0.7] + (1 - t) * [0.6, 0.8, 1.0]).astype(np.float32)
 sidx = []
 for i in range(R):
     for j in range(S):
@@ -77,7 +80,7 @@ gnrm = np.tile(np.array([0, 0, 1], np.float32), (4, 1))
 guv = np.array([[0, 1], [1, 1], [1, 0], [0, 0]], np.float32)
 gidx = np.array([0, 1, 2, 0, 2, 3], np.uint32)
 
-arrays = [fpos, fnrm, fuv, fidx, spos, snrm, suv, sidx, gpos, gnrm, guv, gidx]
+arrays = [fpos, fnrm, fuv, fidx, spos, snrm, suv, sidx, gpos, gnrm, guv, gidx, scol]
 views, buf = [], b""
 for a in arrays:
     views.append({"buffer": 0, "byteOffset": len(buf), "byteLength": a.nbytes})
@@ -108,7 +111,7 @@ gltf = {
     "nodes": [{"name": "floor", "mesh": 0}, {"name": "sphere", "mesh": 1}, {"name": "sign", "mesh": 2}],
     "meshes": [
         {"name": "floor", "primitives": [{"attributes": {"POSITION": 0, "NORMAL": 1, "TEXCOORD_0": 2}, "indices": 3, "material": 0}]},
-        {"name": "sphere", "primitives": [{"attributes": {"POSITION": 4, "NORMAL": 5, "TEXCOORD_0": 6}, "indices": 7, "material": 1}]},
+        {"name": "sphere", "primitives": [{"attributes": {"POSITION": 4, "NORMAL": 5, "TEXCOORD_0": 6, "COLOR_0": 12}, "indices": 7, "material": 1}]},
         {"name": "sign", "primitives": [{"attributes": {"POSITION": 8, "NORMAL": 9, "TEXCOORD_0": 10}, "indices": 11, "material": 2}]},
     ],
     "materials": [material("tiles", 0, 1, 4), material("bands", 2, 3),
