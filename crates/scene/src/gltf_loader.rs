@@ -124,10 +124,8 @@ struct Loader<'a> {
     meshes: HashMap<usize, Vec<u32>>,
     /// glTF material index (`None`: the default material) → our material id.
     materials: HashMap<Option<usize>, u32>,
-    /// glTF image index → our texture id (`None`: could not be decoded).
-    textures: HashMap<usize, Option<u32>>,
-    /// Image index → its raw channel means (data textures), read once.
-    data_textures: HashMap<usize, Option<u32>>,
+    /// (glTF image index, sRGB-decoded) → our texture id (`None`: could not be decoded).
+    textures: HashMap<(usize, bool), Option<u32>>,
     /// Per glTF image: its alpha channel as a coverage texture (`None`: it has none).
     coverages: HashMap<usize, Option<u32>>,
     /// Ignored features → how often, reported as one warning each.
@@ -217,7 +215,6 @@ impl<'a> Loader<'a> {
             meshes: HashMap::new(),
             materials: HashMap::new(),
             textures: HashMap::new(),
-            data_textures: HashMap::new(),
             coverages: HashMap::new(),
             ignored: BTreeMap::new(),
         };
@@ -688,14 +685,25 @@ impl<'a> Loader<'a> {
         Some(move |uv: Vec2| Vec2::new(cos * sx * uv.x + sin * sy * uv.y + ox, -sin * sx * uv.x + cos * sy * uv.y + oy))
     }
 
-    /// Decodes an image into a linear texture (once); an image that cannot be read is a warning.
+    /// Decodes a colour image into a linear texture (once); an image that cannot be read is a
+    /// warning.
     fn texture(&mut self, image: gltf::Image) -> Result<Option<u32>, SceneError> {
-        if let Some(&id) = self.textures.get(&image.index()) {
+        self.decoded_texture(image, true)
+    }
+
+    /// An image of data, not colour (metallic-roughness, normals): its raw channels in [0, 1],
+    /// not sRGB-decoded (once); `None` (with a warning) where it cannot be read.
+    fn data_texture(&mut self, image: gltf::Image) -> Result<Option<u32>, SceneError> {
+        self.decoded_texture(image, false)
+    }
+
+    fn decoded_texture(&mut self, image: gltf::Image, srgb: bool) -> Result<Option<u32>, SceneError> {
+        let index = image.index();
+        if let Some(&id) = self.textures.get(&(index, srgb)) {
             return Ok(id);
         }
-        let index = image.index();
         let id = match self.image_data(image)? {
-            Some(data) => match decoded_image(&data, true) {
+            Some(data) => match decoded_image(&data, srgb) {
                 Some(img) => {
                     self.scene.textures.push(img);
                     Some(self.scene.textures.len() as u32 - 1)
@@ -707,7 +715,7 @@ impl<'a> Loader<'a> {
             },
             None => None,
         };
-        self.textures.insert(index, id);
+        self.textures.insert((index, srgb), id);
         Ok(id)
     }
 
@@ -726,30 +734,6 @@ impl<'a> Loader<'a> {
             None => None,
         };
         self.coverages.insert(index, id);
-        Ok(id)
-    }
-
-    /// An image of data, not colour (a metallic-roughness texture): its raw channels in [0, 1],
-    /// not sRGB-decoded (once); `None` (with a warning) where it cannot be read.
-    fn data_texture(&mut self, image: gltf::Image) -> Result<Option<u32>, SceneError> {
-        let index = image.index();
-        if let Some(&id) = self.data_textures.get(&index) {
-            return Ok(id);
-        }
-        let id = match self.image_data(image)? {
-            Some(data) => match decoded_image(&data, false) {
-                Some(img) => {
-                    self.scene.textures.push(img);
-                    Some(self.scene.textures.len() as u32 - 1)
-                }
-                None => {
-                    self.warn(format!("image {index}: pixel data does not match its size; its factors used alone"));
-                    None
-                }
-            },
-            None => None,
-        };
-        self.data_textures.insert(index, id);
         Ok(id)
     }
 
