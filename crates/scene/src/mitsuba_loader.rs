@@ -822,12 +822,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         });
         if let Some((e, texture)) = emission {
             let mut m = def.material;
-            m.emission = e;
-            if let Some(texture) = texture {
-                // The material's own emission is the texture's mean (the light selection's weight).
-                m.emission = e * self.scene.textures[texture as usize].mean();
-                m.emission_map = Some(EmissionMap { texture, factor: e });
-            }
+            // A bitmap's material emission is its mean (the light selection's weight).
+            m.emission = texture.map_or(e, |t| e * self.scene.textures[t as usize].mean());
+            m.emission_map = texture.map(|texture| EmissionMap { texture, factor: e });
             return self.scene.add_material(m);
         }
         match id {

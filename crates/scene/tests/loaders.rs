@@ -950,6 +950,19 @@ fn gltf_alpha_mask_reads_the_coverage() {
     assert!(scene.warnings.iter().any(|w| w.contains("alpha mode BLEND (drawn opaque)")), "{:?}", scene.warnings);
 }
 
+/// The test glTF with `image` (written as a PNG: sRGB-encoded) as its texture 1, for a material
+/// slot to name. The new image goes first: texture 0 (the base colour) takes image 1, texture 1
+/// image 0.
+fn gltf_with_texture_1(dir: &Path, image: Image) -> String {
+    let path = dir.join("texture1.png");
+    image.write(&path, ToneMap::default()).unwrap();
+    let png = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    gltf_json(Some(&uri))
+        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
+        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{png}"}}, {{"uri": ""#))
+}
+
 /// A metallic-roughness texture (raw, not sRGB-decoded; G roughness, B metallic) is read per
 /// texel ([`Scene::metallic_roughness`]), and its mean scales the material's factors: real
 /// assets leave the factors at 1 and put the values in the texture, which read alone would make
@@ -958,16 +971,10 @@ fn gltf_alpha_mask_reads_the_coverage() {
 #[test]
 fn gltf_metallic_roughness_texture_is_read_per_texel() {
     let dir = scratch("gltf_metallic_roughness");
-    let path = dir.join("mr.png");
     // Stored sRGB-encoded: raw G is srgb_encode(0.2) in both texels, raw B 1 and 0.
-    Image::from_fn(2, 1, |x, _| Vec3::new(0.0, 0.2, if x == 0 { 1.0 } else { 0.0 })).write(&path, ToneMap::default()).unwrap();
-    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
-    let json = gltf_json(Some(&uri))
-        .replace(r#""roughnessFactor": 0.25, "metallicFactor": 0.1,"#, r#""metallicRoughnessTexture": {"index": 1},"#)
-        // The new image goes first: texture 0 (the base colour) takes image 1, texture 1 image 0.
-        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
-        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    let image = Image::from_fn(2, 1, |x, _| Vec3::new(0.0, 0.2, if x == 0 { 1.0 } else { 0.0 }));
+    let json = gltf_with_texture_1(&dir, image)
+        .replace(r#""roughnessFactor": 0.25, "metallicFactor": 0.1,"#, r#""metallicRoughnessTexture": {"index": 1},"#);
     assert!(json.contains("metallicRoughnessTexture") && json.contains(r#"{"source": 1}"#));
     let scene = load(&write(&dir, "mr.gltf", json.clone())).unwrap();
     let m = &scene.materials[scene.meshes[0].material as usize];
@@ -994,15 +1001,9 @@ fn gltf_metallic_roughness_texture_is_read_per_texel() {
 #[test]
 fn gltf_normal_texture_is_read_raw_with_its_scale() {
     let dir = scratch("gltf_normal_texture");
-    let path = dir.join("n.png");
     // Stored sRGB-encoded by `write`: the raw value read back is srgb_encode(0.2) etc.
-    Image::from_fn(1, 1, |_, _| Vec3::new(0.2, 0.5, 1.0)).write(&path, ToneMap::default()).unwrap();
-    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
-    let json = gltf_json(Some(&uri))
-        .replace(r#""name": "glow","#, r#""name": "glow", "normalTexture": {"index": 1, "scale": 0.5},"#)
-        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
-        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    let json = gltf_with_texture_1(&dir, Image::from_fn(1, 1, |_, _| Vec3::new(0.2, 0.5, 1.0)))
+        .replace(r#""name": "glow","#, r#""name": "glow", "normalTexture": {"index": 1, "scale": 0.5},"#);
     assert!(json.contains("normalTexture"));
     let scene = load(&write(&dir, "n.gltf", json.clone())).unwrap();
     let m = &scene.materials[scene.meshes[0].material as usize];
@@ -1025,15 +1026,9 @@ fn gltf_normal_texture_is_read_raw_with_its_scale() {
 #[test]
 fn gltf_emissive_texture_is_read_per_texel() {
     let dir = scratch("gltf_emissive_texture");
-    let path = dir.join("e.png");
     // 2 × 1: black on the left, white on the right (exact in sRGB).
-    Image::from_fn(2, 1, |x, _| Vec3::splat(x as f32)).write(&path, ToneMap::default()).unwrap();
-    let image = format!("data:image/png;base64,{}", base64(&std::fs::read(&path).unwrap()));
-    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
-    let json = gltf_json(Some(&uri))
-        .replace(r#""emissiveFactor": [1, 0.5, 0],"#, r#""emissiveFactor": [1, 0.5, 0], "emissiveTexture": {"index": 1},"#)
-        .replace(r#""textures": [{"source": 0}]"#, r#""textures": [{"source": 1}, {"source": 0}]"#)
-        .replace(r#""images": [{"uri": ""#, &format!(r#""images": [{{"uri": "{image}"}}, {{"uri": ""#));
+    let json = gltf_with_texture_1(&dir, Image::from_fn(2, 1, |x, _| Vec3::splat(x as f32)))
+        .replace(r#""emissiveFactor": [1, 0.5, 0],"#, r#""emissiveFactor": [1, 0.5, 0], "emissiveTexture": {"index": 1},"#);
     assert!(json.contains("emissiveTexture"));
     let scene = load(&write(&dir, "e.gltf", json.clone())).unwrap();
     let mid = scene.meshes[0].material;

@@ -976,13 +976,15 @@ impl Technique for Wavecache {
                 // The cache is read deterministically; only a traced lobe (sharp, or beyond the
                 // cache: `trace_far`, or glass) draws random numbers, so only it takes the
                 // pixel's `spp` samples.
-                let sharp = glass || rt.texel_traced(&p);
+                // A texel far from its material's mean BRDF is traced, with more samples.
+                let off_mean = !glass && rt.off_mean(&p);
+                let sharp = glass || off_mean || rt.traced.get(p.material as usize).copied().unwrap_or(false);
                 let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
                 let far = known.as_ref().is_some_and(|k| k.far);
                 if far {
                     far_pixels.fetch_add(1, Ordering::Relaxed);
                 }
-                let samples = match (sharp || far, !glass && rt.off_mean(&p)) {
+                let samples = match (sharp || far, off_mean) {
                     (true, true) => spp.max(TEXEL_TRACE_SAMPLES),
                     (true, false) => spp,
                     (false, _) => 1,
