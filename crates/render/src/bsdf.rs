@@ -22,7 +22,7 @@
 
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Vec2, Vec3, luminance};
-use glimpse_scene::MaterialModel;
+use glimpse_scene::{BumpShadowing, MaterialModel};
 use std::f32::consts::PI;
 
 /// Smallest GGX α (roughness 0 becomes this).
@@ -59,6 +59,9 @@ pub struct Bsdf {
     model: BrdfModel,
     /// A conductor's complex IOR (η, k) per channel: `None` for the metallic-roughness model.
     conductor: Option<(Vec3, Vec3)>,
+    /// Light arriving at a bent normal, shadowed where its format's renderer does so
+    /// ([`Bsdf::with_bump_shadowing`]).
+    bump_shadowing: Option<BumpShadowing>,
 }
 
 impl Bsdf {
@@ -88,7 +91,7 @@ impl Bsdf {
                 (diffuse, f0, p.clamp(0.1, 0.9))
             }
         };
-        Some(Bsdf { frame, ng, wo: wo_l, diffuse, f0, alpha, p_spec, model, conductor: None })
+        Some(Bsdf { frame, ng, wo: wo_l, diffuse, f0, alpha, p_spec, model, conductor: None, bump_shadowing: None })
     }
 
     /// The BRDF of a material of model `material` (not `Dielectric`, whose lobes are deltas the
@@ -118,6 +121,19 @@ impl Bsdf {
         }
     }
 
+    /// The same BSDF with its light shadowed by the bend of a normal map
+    /// ([`BumpShadowing`]: f × its factor, in [`Bsdf::eval`] and [`Bsdf::sample`]; the density
+    /// is the unshadowed lobe's, as Mitsuba's `normalmap` has it).
+    pub fn with_bump_shadowing(mut self, shadowing: Option<BumpShadowing>) -> Self {
+        self.bump_shadowing = shadowing;
+        self
+    }
+
+    /// The share of light from `wi` that the bump shadowing lets through (1 without it).
+    fn shadowing(&self, wi: Vec3) -> f32 {
+        self.bump_shadowing.map_or(1.0, |s| s.factor(wi))
+    }
+
     /// The specular layer's Fresnel term at cos θ = ωo·h.
     fn fresnel(&self, cos: f32) -> Vec3 {
         match self.conductor {
@@ -133,7 +149,7 @@ impl Bsdf {
 
     /// f(ωo, ωi) for unit world direction `wi`.
     pub fn eval(&self, wi: Vec3) -> Vec3 {
-        if self.ng.dot(wi) <= 0.0 { Vec3::ZERO } else { self.eval_local(self.frame.to_local(wi)) }
+        if self.ng.dot(wi) <= 0.0 { Vec3::ZERO } else { self.eval_local(self.frame.to_local(wi)) * self.shadowing(wi) }
     }
 
     /// Solid-angle density with which [`Bsdf::sample`] returns `wi`.
@@ -159,7 +175,7 @@ impl Bsdf {
             return None;
         }
         let pdf = self.pdf_local(wi_l);
-        let f = self.eval_local(wi_l);
+        let f = self.eval_local(wi_l) * self.shadowing(wi);
         (pdf > 0.0 && f.max_element() > 0.0).then_some(BsdfSample { wi, f, pdf, cos })
     }
 

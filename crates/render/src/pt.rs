@@ -29,7 +29,7 @@ use crate::bsdf::{self, BrdfModel, Bsdf};
 use crate::direct::{self, EmitterIndex};
 use crate::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_core::{Image, Ray, Rng, Vec3, is_finite3};
-use glimpse_scene::{MaterialModel, Scene, SceneFrame};
+use glimpse_scene::{BumpShadowing, MaterialModel, NormalMapShadowing, Scene, SceneFrame};
 use glimpse_trace::{ExactTracer, GBuffer, SurfacePoint};
 use std::sync::atomic::{AtomicU64, Ordering};
 
@@ -66,6 +66,8 @@ pub struct PathVertex {
     pub model: MaterialModel,
     /// The ray arrived on the triangle's front (winding) side: a dielectric is entered there.
     pub front_face: bool,
+    /// [`SurfacePoint::bump_shadowing`].
+    pub bump_shadowing: Option<BumpShadowing>,
 }
 
 impl PathVertex {
@@ -83,6 +85,7 @@ impl PathVertex {
             clearcoat: m.clearcoat,
             model: m.model,
             front_face: sp.front_face,
+            bump_shadowing: sp.bump_shadowing,
         }
     }
 }
@@ -196,7 +199,9 @@ impl PathIntegrator<'_> {
                 v = PathVertex::of(frame, &sp);
                 continue;
             }
-            let Some(bsdf) = Bsdf::for_material(model, v.model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo) else {
+            let Some(bsdf) = Bsdf::for_material(model, v.model, v.base, v.metallic, v.roughness, v.shading_normal, v.normal, wo)
+                .map(|b| b.with_bump_shadowing(v.bump_shadowing))
+            else {
                 break;
             };
             let coat = ClearCoat::at(&v, model, wo);
@@ -341,9 +346,11 @@ impl PathTracer {
     fn path(&self, ctx: &FrameContext, g: &GBuffer, i: usize, rng: &mut Rng) -> (Vec3, u64) {
         let m = &ctx.frame.scene.materials[g.material[i] as usize];
         let glass = matches!(m.model, MaterialModel::Dielectric { .. });
-        // The GBuffer does not keep the hit's side, which glass needs: trace the primary ray again.
+        let shadowed = m.normal_map.is_some_and(|n| n.shadowing == NormalMapShadowing::Microfacet);
+        // The GBuffer does not keep the hit's side, which glass needs, nor the normal before its
+        // normal map bent it, which a shadowed bend needs: trace the primary ray again.
         let primary = Ray::new(g.camera.position, g.view_dir[i]);
-        let hit = if glass { ctx.tracer.closest_hit(&primary, f32::INFINITY) } else { None };
+        let hit = if glass || shadowed { ctx.tracer.closest_hit(&primary, f32::INFINITY) } else { None };
         let v = if let Some(hit) = hit {
             PathVertex::of(&ctx.frame, &SurfacePoint::from_hit(&ctx.frame, &primary, &hit))
         } else {
@@ -359,6 +366,7 @@ impl PathTracer {
                 clearcoat: m.clearcoat,
                 model: m.model,
                 front_face: true,
+                bump_shadowing: None,
             }
         };
         let integrator = PathIntegrator {

@@ -5,7 +5,7 @@
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use glimpse_render::pt::PathTracer;
 use glimpse_render::{FrameContext, Params, Settings, Technique};
-use glimpse_scene::{Bitangent, Camera, Environment, Material, Mesh, NormalMap, Scene};
+use glimpse_scene::{Bitangent, Camera, Environment, Material, Mesh, NormalMap, NormalMapShadowing, Scene};
 
 /// The tilted normal, in world space (the floor's frame: T = +x, B = −z, N = +y).
 fn tilted() -> Vec3 {
@@ -27,7 +27,8 @@ fn scene(floor: Floor) -> Scene {
         let n = tilted();
         let local = Vec3::new(n.x, -n.z, n.y); // (T, B, N) components
         s.textures.push(Image::from_fn(1, 1, |_, _| (local + Vec3::ONE) * 0.5));
-        material.normal_map = Some(NormalMap { texture: 0, scale: 1.0, bitangent: Bitangent::ImageUp });
+        material.normal_map =
+            Some(NormalMap { texture: 0, scale: 1.0, bitangent: Bitangent::ImageUp, shadowing: NormalMapShadowing::None });
     }
     let m = s.add_material(material);
     let c = Vec3::new;

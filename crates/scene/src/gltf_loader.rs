@@ -51,7 +51,7 @@
 use crate::obj_loader::guard;
 use crate::{
     AlphaMask, Bitangent, Camera, EmissionMap, Instance, Light, Material, MaterialModel, Mesh, MetallicRoughnessMap, Motion, NormalMap,
-    Scene, SceneError, Transform, TransformKey,
+    NormalMapShadowing, Scene, SceneError, Transform, TransformKey,
 };
 use glimpse_core::bounded_read::{check_file, limit, read_bounded};
 use glimpse_core::image::srgb_decode;
@@ -634,7 +634,12 @@ impl<'a> Loader<'a> {
                 let same_uvs = normal.tex_coord() == 0 && self.same_transform(index, &["normalTexture"]);
                 match self.data_texture(normal.texture().source())? {
                     Some(texture) if same_uvs => {
-                        mat.normal_map = Some(NormalMap { texture, scale: normal.scale(), bitangent: Bitangent::ImageUp })
+                        mat.normal_map = Some(NormalMap {
+                            texture,
+                            scale: normal.scale(),
+                            bitangent: Bitangent::ImageUp,
+                            shadowing: NormalMapShadowing::None,
+                        })
                     }
                     Some(_) => self.ignore("normal textures whose uvs differ from the base colour texture's"),
                     None => {}

@@ -37,7 +37,10 @@ pub use error::SceneError;
 pub use film::{Film, Filter};
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};
 pub use light::{Light, LightKind};
-pub use model::{AlphaMask, Bitangent, EmissionMap, Instance, Material, MaterialModel, Mesh, MetallicRoughnessMap, NormalMap, Scene};
+pub use model::{
+    AlphaMask, Bitangent, BumpShadowing, EmissionMap, Instance, Material, MaterialModel, Mesh, MetallicRoughnessMap, NormalMap,
+    NormalMapShadowing, Scene,
+};
 pub use overrides::SceneOverrides;
 pub use render_hints::RenderHints;
 

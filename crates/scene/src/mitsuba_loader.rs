@@ -23,7 +23,9 @@
 
 use crate::builtin::{box_mesh, sphere_mesh};
 use crate::obj_loader::{TextureCache, TextureRead};
-use crate::{Bitangent, Camera, EmissionMap, Environment, Light, Material, MaterialModel, Mesh, NormalMap, Scene, SceneError};
+use crate::{
+    Bitangent, Camera, EmissionMap, Environment, Light, Material, MaterialModel, Mesh, NormalMap, NormalMapShadowing, Scene, SceneError,
+};
 use glimpse_core::{Image, Mat4, Vec2, Vec3};
 use roxmltree::{Document, Node};
 use std::collections::HashMap;
@@ -618,7 +620,12 @@ impl<'a, 'input> Loader<'a, 'input> {
                 };
                 let mut def = self.bsdf(inner)?;
                 def.material.name = m.name;
-                def.material.normal_map = Some(NormalMap { texture, scale: 1.0, bitangent: Bitangent::NormalCrossTangent });
+                def.material.normal_map = Some(NormalMap {
+                    texture,
+                    scale: 1.0,
+                    bitangent: Bitangent::NormalCrossTangent,
+                    shadowing: NormalMapShadowing::Microfacet,
+                });
                 return Ok(def);
             }
             "diffuse" => {

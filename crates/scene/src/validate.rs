@@ -216,12 +216,25 @@ mod tests {
             (Material { metallic_roughness_map: map(0, 1.5), ..plain() }, "metallic-roughness factors 1.5 and 1"),
             (Material { alpha_mask: mask(None, f32::NAN), ..plain() }, "alpha mask factor NaN"),
             (
-                Material { normal_map: Some(NormalMap { texture: 4, scale: 1.0, bitangent: crate::Bitangent::ImageUp }), ..plain() },
+                Material {
+                    normal_map: Some(NormalMap {
+                        texture: 4,
+                        scale: 1.0,
+                        bitangent: crate::Bitangent::ImageUp,
+                        shadowing: crate::NormalMapShadowing::None,
+                    }),
+                    ..plain()
+                },
                 "uses texture 4, but there are 1",
             ),
             (
                 Material {
-                    normal_map: Some(NormalMap { texture: 0, scale: f32::INFINITY, bitangent: crate::Bitangent::ImageUp }),
+                    normal_map: Some(NormalMap {
+                        texture: 0,
+                        scale: f32::INFINITY,
+                        bitangent: crate::Bitangent::ImageUp,
+                        shadowing: crate::NormalMapShadowing::None,
+                    }),
                     ..plain()
                 },
                 "normal map scale inf",

@@ -1012,6 +1012,8 @@ fn gltf_normal_texture_is_read_raw_with_its_scale() {
     let raw = (glimpse_core::image::srgb_encode(0.2) * 255.0).round() / 255.0;
     println!("normal map {map:?}, texel {texel}; warnings {:?}", scene.warnings);
     assert_eq!(map.scale, 0.5);
+    // glTF's viewers (and pbrt-v4) shade the bent normal's cosine alone.
+    assert_eq!(map.shadowing, glimpse_scene::NormalMapShadowing::None);
     assert!((texel.x - raw).abs() < 1e-6 && texel.z == 1.0, "raw channels, not decoded: {texel}");
     assert!(!scene.warnings.iter().any(|w| w.contains("normal textures")), "{:?}", scene.warnings);
     let other_uvs = json.replace(r#""normalTexture": {"index": 1, "scale": 0.5}"#, r#""normalTexture": {"index": 1, "texCoord": 1}"#);

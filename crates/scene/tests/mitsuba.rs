@@ -288,6 +288,8 @@ fn normal_maps_and_textured_emitters_load_from_mitsuba() {
     let floor = scene.materials.iter().find(|m| m.normal_map.is_some()).expect("the normal-mapped floor");
     let map = floor.normal_map.unwrap();
     assert_eq!((map.scale, map.bitangent), (1.0, glimpse_scene::Bitangent::NormalCrossTangent));
+    // Mitsuba 3's `normalmap` shadows the bend (crates/render/tests/bump_shadowing.rs).
+    assert_eq!(map.shadowing, glimpse_scene::NormalMapShadowing::Microfacet);
     let normals = &scene.textures[map.texture as usize];
     let albedo = &scene.textures[floor.base_color_texture.expect("the bitmap reflectance") as usize];
     // Raw: a flat-ish normal map's z channel is near 1 (sRGB-decoding would not change 1, so

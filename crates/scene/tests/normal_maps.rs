@@ -2,7 +2,7 @@
 //! triangle's frame, T along dp/du, B against dp/dv (the image's up), N the interpolated normal.
 
 use glimpse_core::{Image, Vec2, Vec3};
-use glimpse_scene::{Bitangent, NormalMap};
+use glimpse_scene::{Bitangent, NormalMap, NormalMapShadowing};
 
 /// A 1 × 1 texture holding the tangent-space normal `n` as glTF stores it: (n + 1) / 2.
 fn texel(n: Vec3) -> Image {
@@ -14,7 +14,7 @@ fn texel(n: Vec3) -> Image {
 fn the_texel_normal_is_read_in_the_triangles_frame() {
     // A floor (n = +y) with u along +x and v along +z: the image's up (−v) is −z.
     let (n, dpdu, dpdv, uv) = (Vec3::Y, Vec3::X, Vec3::Z, Vec2::new(0.3, 0.6));
-    let map = NormalMap { texture: 0, scale: 1.0, bitangent: Bitangent::ImageUp };
+    let map = NormalMap { texture: 0, scale: 1.0, bitangent: Bitangent::ImageUp, shadowing: NormalMapShadowing::None };
     let bend = |t: Vec3, dpdu: Vec3, dpdv: Vec3| map.perturb(&texel(t), uv, n, dpdu, dpdv).unwrap();
     let close = |a: Vec3, b: Vec3| (a - b).length() < 1e-2;
     let flat = bend(Vec3::Z, dpdu, dpdv);

@@ -6,7 +6,7 @@
 
 use crate::{Hit, SceneFrame};
 use glimpse_core::{Image, Mat3, Ray, Vec2, Vec3};
-use glimpse_scene::NormalMap;
+use glimpse_scene::{BumpShadowing, NormalMap, NormalMapShadowing};
 
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct SurfacePoint {
@@ -23,6 +23,9 @@ pub struct SurfacePoint {
     pub uv: Vec2,
     /// The mesh's vertex colour here (1 where it has none), a factor of the base colour.
     pub color: Vec3,
+    /// Where the material's normal map bent the normal and its format's renderer shadows the
+    /// bend ([`glimpse_scene::NormalMapShadowing::Microfacet`]): the BSDF's light factor.
+    pub bump_shadowing: Option<BumpShadowing>,
     pub material: u32,
     pub instance: u32,
     pub triangle: u32,
@@ -74,6 +77,7 @@ impl SurfacePoint {
         };
         let facing = |n: Vec3| if n.dot(normal) < 0.0 { -n } else { n };
         let mut shading_normal = facing(authored);
+        let mut bump_shadowing = None;
         if let Some(map) = scene.materials[mesh.material as usize].normal_map
             && !mesh.uvs.is_empty()
         {
@@ -82,7 +86,10 @@ impl SurfacePoint {
             let bent = normal_mapped(&map, &scene.textures[map.texture as usize], uv, &p, &uvs, authored)
                 .map(|b| if authored.dot(normal) < 0.0 { -b } else { b })
                 .filter(|b| b.dot(normal) > 0.0);
-            shading_normal = bent.unwrap_or(shading_normal);
+            if let Some(bent) = bent {
+                shading_normal = bent;
+                bump_shadowing = (map.shadowing == NormalMapShadowing::Microfacet).then(|| BumpShadowing::new(authored, bent));
+            }
         }
         SurfacePoint {
             position,
@@ -92,6 +99,7 @@ impl SurfacePoint {
             front_face,
             uv,
             color,
+            bump_shadowing,
             material: mesh.material,
             instance: hit.instance,
             triangle: hit.triangle,

@@ -133,6 +133,7 @@ impl<'a> Integrator<'a> {
             clearcoat: 0.0,
             model: glimpse_scene::MaterialModel::Pbr,
             front_face: true,
+            bump_shadowing: None,
         };
         let start = PathStart { depth: 1, model: Some(BrdfModel::Lambert), punctual: self.punctual_irradiance };
         let (l, rays) = self.pt().path(v, s.shading_normal, start, rng);
