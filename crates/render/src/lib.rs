@@ -34,8 +34,9 @@ pub use technique::{Need, RenderError, Settings, Technique, require};
 /// 4 = mirrored instances keep their faces' orientation (`glimpse_scene::orient`, session 25);
 /// 5 = glTF alpha masks cut out by the exact tracer (session 28); 6 = glTF metallic-roughness
 /// textures read per texel by the path tracer, normal textures bending the shading normal and
-/// emissive textures emitting per texel (session 29).
-pub const RESULTS_REVISION: u32 = 6;
+/// emissive textures emitting per texel (session 29); 7 = Mitsuba's normal maps shadow their
+/// bend, glTF's `TANGENT` frames normal textures (session 30).
+pub const RESULTS_REVISION: u32 = 7;
 
 /// Where glimpse keeps data that is slow to compute (reference images, precomputations):
 /// `$GLIMPSE_CACHE`, else `$XDG_CACHE_HOME/glimpse`, else `~/.cache/glimpse`. `GLIMPSE_CACHE`

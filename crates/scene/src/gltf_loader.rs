@@ -20,7 +20,8 @@
 //!   its mean × the factors is the material's one BRDF for the techniques; where its uvs differ
 //!   from the base colour texture's (another set or transform) the mean alone is used (warning).
 //!   A normal texture (raw, tangent space) bends the shading normal per texel for every
-//!   technique ([`NormalMap`]; the tangent frame from the triangle's uvs, as pbrt-v4 builds it),
+//!   technique ([`NormalMap`]; the tangent frame from the `TANGENT` attribute where the
+//!   primitive has one, else from the triangle's uvs, as pbrt-v4 builds it),
 //!   on the base colour texture's uvs only (else ignored, warning). Occlusion textures, alpha
 //!   mode BLEND and texture sets other than 0 are ignored with one warning each, and every other
 //!   extension the file uses is named in one warning.
@@ -497,6 +498,8 @@ impl<'a> Loader<'a> {
                 prim.get(&gltf::Semantic::Normals).map(|a| self.check_accessor(&a, &[DataType::F32], Dimensions::Vec3).is_ok());
             let uv_types = [DataType::F32, DataType::U8, DataType::U16];
             let uvs_ok = prim.get(&gltf::Semantic::TexCoords(0)).map(|a| self.check_accessor(&a, &uv_types, Dimensions::Vec2).is_ok());
+            let tangents_ok =
+                prim.get(&gltf::Semantic::Tangents).map(|a| self.check_accessor(&a, &[DataType::F32], Dimensions::Vec4).is_ok());
             let colors_ok = prim
                 .get(&gltf::Semantic::Colors(0))
                 .map(|a| [Dimensions::Vec3, Dimensions::Vec4].into_iter().any(|d| self.check_accessor(&a, &uv_types, d).is_ok()));
@@ -523,6 +526,10 @@ impl<'a> Loader<'a> {
                 Some(it) => it.into_rgb_f32().map(Vec3::from_array).collect(),
                 None => Vec::new(),
             };
+            let mut tangents: Vec<Vec4> = match tangents_ok.and_then(|ok| ok.then(|| reader.read_tangents()).flatten()) {
+                Some(it) => it.map(Vec4::from_array).collect(),
+                None => Vec::new(),
+            };
             let indices: Vec<u32> = match reader.read_indices() {
                 Some(it) => it.into_u32().collect(),
                 None if prim.indices().is_some() => return Err(outside("index")),
@@ -541,11 +548,15 @@ impl<'a> Loader<'a> {
                 colors.clear();
                 dropped.push("colours");
             }
+            if !tangents.is_empty() && tangents.len() != positions.len() {
+                tangents.clear();
+                dropped.push("tangents");
+            }
             if !dropped.is_empty() {
                 self.warn(format!("{what}: {} do not match the vertex count; dropped", dropped.join(" and ")));
             }
-            if normals_ok == Some(false) || uvs_ok == Some(false) || colors_ok == Some(false) {
-                self.ignore("NORMAL, TEXCOORD_0 or COLOR_0 accessors of an unexpected type or size");
+            if [normals_ok, uvs_ok, colors_ok, tangents_ok].contains(&Some(false)) {
+                self.ignore("NORMAL, TEXCOORD_0, COLOR_0 or TANGENT accessors of an unexpected type or size");
             }
             let material = self.material(prim.material())?;
             if let Some(transform) = self.base_color_uv_transform(&prim.material()) {
@@ -556,7 +567,7 @@ impl<'a> Loader<'a> {
                 None => what.clone(),
             };
             let indices = indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-            self.scene.meshes.push(Mesh { name, positions, normals, uvs, colors, indices, material, deformation: None });
+            self.scene.meshes.push(Mesh { name, positions, normals, uvs, colors, tangents, indices, material, deformation: None });
             ids.push(self.scene.meshes.len() as u32 - 1);
         }
         self.meshes.insert(mesh.index(), ids.clone());

@@ -1,7 +1,7 @@
 //! The scene's plain data: meshes, materials, textures and instances, linked by index.
 
 use crate::{Camera, Deformation, Environment, Light, Motion};
-use glimpse_core::{Aabb, Image, Mat4, Vec2, Vec3};
+use glimpse_core::{Aabb, Image, Mat4, Vec2, Vec3, Vec4};
 
 /// A triangle mesh in its own object space, with one material.
 #[derive(Clone, Debug, Default)]
@@ -17,6 +17,10 @@ pub struct Mesh {
     /// `COLOR_0`, PLY's red/green/blue and OBJ's `v x y z r g b` define it: empty, or one per
     /// position.
     pub colors: Vec<Vec3>,
+    /// Per-vertex tangents for the normal texture (glTF's `TANGENT`: xyz along +u, w = ±1 the
+    /// bitangent's sign, B = w · N × T): empty, or one per position. Without them (or on a
+    /// deforming mesh, whose tangents would not follow) the triangle's uv frame stands in.
+    pub tangents: Vec<Vec4>,
     pub indices: Vec<[u32; 3]>,
     pub material: u32,
     /// Vertex animation; `None` for a rigid mesh.
@@ -206,6 +210,18 @@ impl NormalMap {
         let t = (dpdu - n * n.dot(dpdu)).try_normalize()?;
         let b = n.cross(t);
         let b = if self.bitangent == Bitangent::ImageUp && b.dot(dpdv) > 0.0 { -b } else { b };
+        self.bend(texture, uv, n, t, b)
+    }
+
+    /// [`Self::perturb`] in the frame of an authored tangent `tangent` (glTF's `TANGENT`,
+    /// interpolated and in world space; made orthogonal to `n`) with B = `sign` · n × T.
+    pub fn perturb_along(&self, texture: &Image, uv: Vec2, n: Vec3, tangent: Vec3, sign: f32) -> Option<Vec3> {
+        let t = (tangent - n * n.dot(tangent)).try_normalize()?;
+        self.bend(texture, uv, n, t, n.cross(t) * sign)
+    }
+
+    /// The texel at `uv` in the orthonormal frame (t, b, n).
+    fn bend(&self, texture: &Image, uv: Vec2, n: Vec3, t: Vec3, b: Vec3) -> Option<Vec3> {
         let c = texture.sample_repeat(uv.x, uv.y) * 2.0 - Vec3::ONE;
         (t * (c.x * self.scale) + b * (c.y * self.scale) + n * c.z).try_normalize()
     }

@@ -141,7 +141,7 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
             partial_attributes += 1;
         }
         let indices = m.indices.chunks_exact(3).map(|t| [t[0], t[1], t[2]]).collect();
-        let mesh = Mesh { name: model.name, positions, normals, uvs, colors, indices, material, deformation: None };
+        let mesh = Mesh { name: model.name, positions, normals, uvs, colors, indices, material, ..Default::default() };
         scene.add_mesh(mesh, Mat4::IDENTITY);
     }
     if partial_attributes > 0 {

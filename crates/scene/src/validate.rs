@@ -108,6 +108,12 @@ pub fn validate(scene: &mut Scene, source: &str) -> Result<(), SceneError> {
         if mesh.colors.iter().any(|c| !is_finite3(*c) || c.min_element() < 0.0) {
             return Err(invalid(format!("{name}: a vertex colour is NaN, infinite or negative")));
         }
+        if !mesh.tangents.is_empty() && mesh.tangents.len() != mesh.positions.len() {
+            return Err(invalid(format!("{name}: {} tangents for {} vertices", mesh.tangents.len(), mesh.positions.len())));
+        }
+        if mesh.tangents.iter().any(|t| !t.is_finite()) {
+            return Err(invalid(format!("{name}: a tangent is NaN or infinite")));
+        }
         let n = mesh.positions.len() as u32;
         if let Some(t) = mesh.indices.iter().find(|t| t.iter().any(|&i| i >= n)) {
             return Err(invalid(format!("{name}: triangle {t:?} indexes past its {n} vertices")));

@@ -1078,3 +1078,32 @@ fn vertex_colours_are_read_from_gltf_obj_and_ply() {
     println!("PLY colours {:?}", scene.meshes[0].colors);
     assert_eq!(scene.meshes[0].colors, vec![Vec3::X, Vec3::Y, Vec3::Z]);
 }
+
+/// glTF's TANGENT (VEC4 floats) is read per vertex; an accessor of another type is ignored with
+/// a warning that names it.
+#[test]
+fn gltf_tangents_are_read() {
+    let dir = scratch("tangents");
+    let uri = format!("data:application/octet-stream;base64,{}", base64(&gltf_buffer()));
+    // A VEC4 view over the buffer's animation floats (bytes 104..152), as the tangents.
+    let json = gltf_json(Some(&uri))
+        .replace(r#""NORMAL": 1, "TEXCOORD_0": 2"#, r#""NORMAL": 1, "TANGENT": 8, "TEXCOORD_0": 2"#)
+        .replace(
+            r#"{"buffer": 0, "byteOffset": 144, "byteLength": 24}"#,
+            r#"{"buffer": 0, "byteOffset": 144, "byteLength": 24}, {"buffer": 0, "byteOffset": 104, "byteLength": 48}"#,
+        )
+        .replace(
+            r#"{"bufferView": 7, "componentType": 5126, "count": 2, "type": "VEC3"}"#,
+            r#"{"bufferView": 7, "componentType": 5126, "count": 2, "type": "VEC3"}, {"bufferView": 8, "componentType": 5126, "count": 3, "type": "VEC4"}"#,
+        );
+    assert!(json.contains(r#""TANGENT": 8"#) && json.contains(r#""bufferView": 8"#));
+    let scene = load(&write(&dir, "t.gltf", json.clone())).unwrap();
+    println!("tangents {:?}", scene.meshes[0].tangents);
+    let v = glimpse_core::Vec4::new;
+    assert_eq!(scene.meshes[0].tangents, vec![v(0., 2., 1., 0.), v(0., 3., 0., 0.), v(0., 1.5, 1., 1.)]);
+    // The normals' VEC3 accessor as TANGENT: not read, and said.
+    let scene = load(&write(&dir, "t3.gltf", json.replace(r#""TANGENT": 8"#, r#""TANGENT": 1"#))).unwrap();
+    println!("warnings {:?}", scene.warnings);
+    assert!(scene.meshes[0].tangents.is_empty());
+    assert!(scene.warnings.iter().any(|w| w.contains("TANGENT")), "{:?}", scene.warnings);
+}

@@ -81,11 +81,20 @@ impl SurfacePoint {
         if let Some(map) = scene.materials[mesh.material as usize].normal_map
             && !mesh.uvs.is_empty()
         {
-            let uvs = [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]];
+            let texture = &scene.textures[map.texture as usize];
+            let bent = if !mesh.tangents.is_empty() && mesh.deformation.is_none() {
+                // The authored tangents (their w the bitangent's sign, which a mirroring
+                // placement reverses: B follows the placement, n × T does not).
+                let [t0, t1, t2] = [mesh.tangents[i0], mesh.tangents[i1], mesh.tangents[i2]];
+                let tangent = Mat3::from_mat4(m) * (t0.truncate() * b0 + t1.truncate() * hit.b1 + t2.truncate() * hit.b2);
+                let sign = if t0.w < 0.0 { -1.0 } else { 1.0 } * if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+                map.perturb_along(texture, uv, authored, tangent, sign)
+            } else {
+                let uvs = [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]];
+                normal_mapped(&map, texture, uv, &p, &uvs, authored)
+            };
             // Reversed with the authored normal; one bent out of `normal`'s hemisphere is not used.
-            let bent = normal_mapped(&map, &scene.textures[map.texture as usize], uv, &p, &uvs, authored)
-                .map(|b| if authored.dot(normal) < 0.0 { -b } else { b })
-                .filter(|b| b.dot(normal) > 0.0);
+            let bent = bent.map(|b| if authored.dot(normal) < 0.0 { -b } else { b }).filter(|b| b.dot(normal) > 0.0);
             if let Some(bent) = bent {
                 shading_normal = bent;
                 bump_shadowing = (map.shadowing == NormalMapShadowing::Microfacet).then(|| BumpShadowing::new(authored, bent));

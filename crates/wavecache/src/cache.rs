@@ -930,6 +930,7 @@ pub fn cache_key(frame: &SceneFrame, p: &WavecacheParams, seed: u64) -> u64 {
         h.f32s(frame.normals[k].iter().flat_map(|v| v.to_array()));
         h.f32s(m.uvs.iter().flat_map(|v| v.to_array()));
         h.f32s(m.colors.iter().flat_map(|v| v.to_array()));
+        h.f32s(m.tangents.iter().flat_map(|v| v.to_array()));
         for t in &m.indices {
             h.bytes(bytemuck::cast_slice(t));
         }
