@@ -9,7 +9,9 @@
 //!   glimpse scattering vertices: glimpse = Mitsuba − 1; −1 stays unbounded);
 //! - BSDFs `diffuse`, `conductor`, `roughconductor` (GGX), `dielectric`, `twosided` or
 //!   `normalmap` (a raw bitmap, [`NormalMap`]) around one of them; `rgb`, `spectrum` (one
-//!   value), `float` or `bitmap` texture reflectance (`raw` or sRGB-decoded);
+//!   value), `float` or `bitmap` texture reflectance (`raw` or sRGB-decoded), or a PLY mesh's
+//!   vertex colours (`mesh_attribute` `vertex_color`, read as Mitsuba reads them:
+//!   [`PlyColors::Mitsuba`]; a mesh whose material does not read them is drawn without them);
 //! - shapes `obj`, `ply`, `rectangle`, `cube`, `sphere` with `to_world`, a BSDF (nested or
 //!   `ref`) and an `area` emitter (its radiance a colour or a bitmap, [`EmissionMap`]);
 //! - emitters `point`, `spot`, `directional`, `envmap`, `constant`;
@@ -23,6 +25,7 @@
 
 use crate::builtin::{box_mesh, sphere_mesh};
 use crate::obj_loader::{TextureCache, TextureRead};
+use crate::ply_loader::PlyColors;
 use crate::{
     Bitangent, Camera, EmissionMap, Environment, Light, Material, MaterialModel, Mesh, NormalMap, NormalMapShadowing, Scene, SceneError,
 };
@@ -63,6 +66,10 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
 #[derive(Clone)]
 struct BsdfDef {
     material: Material,
+    /// The reflectance is the mesh's `vertex_color` attribute (a `mesh_attribute` texture): the
+    /// base colour is 1 and the mesh's vertex colours multiply it. Otherwise Mitsuba ignores a
+    /// mesh's colours, and so does the loader.
+    vertex_colors: bool,
 }
 
 struct Loader<'a, 'input> {
@@ -249,6 +256,22 @@ impl<'a, 'input> Loader<'a, 'input> {
             }
             _ => Ok((self.color(node)?, None)),
         }
+    }
+
+    /// Whether `node` is a `mesh_attribute` texture reading the mesh's vertex colours (the one
+    /// attribute supported: `vertex_color`).
+    fn is_vertex_color(&self, node: Node) -> Result<bool, SceneError> {
+        if node.tag_name().name() != "texture" || self.required(node, "type")? != "mesh_attribute" {
+            return Ok(false);
+        }
+        for c in elements(node) {
+            match (c.tag_name().name(), self.attr(c, "name")?.as_deref()) {
+                ("string", Some("name")) if self.required(c, "value")? == "vertex_color" => {}
+                ("string", Some("name")) => return Err(self.unsupported(c, "mesh_attribute: only 'vertex_color' is supported")),
+                _ => return Err(self.unknown_child(c, node)),
+            }
+        }
+        Ok(true)
     }
 
     /// A file path attribute resolved against the scene's folder; the file must exist.
@@ -590,6 +613,7 @@ impl<'a, 'input> Loader<'a, 'input> {
         let kind = self.required(node, "type")?;
         let name = self.attr(node, "id")?.unwrap_or_else(|| format!("{kind} (line {})", self.line(node)));
         let mut m = Material { name, ..Default::default() };
+        let mut vertex_colors = false;
         match kind.as_str() {
             "twosided" => {
                 // glimpse shades both sides of every surface already.
@@ -634,6 +658,9 @@ impl<'a, 'input> Loader<'a, 'input> {
                 m.metallic = 0.0;
                 for c in elements(node) {
                     match self.attr(c, "name")?.as_deref() {
+                        Some("reflectance") if self.is_vertex_color(c)? => {
+                            (m.base_color, vertex_colors) = (Vec3::ONE, true);
+                        }
                         Some("reflectance") => (m.base_color, m.base_color_texture) = self.color_or_texture(c)?,
                         _ => return Err(self.unknown_child(c, node)),
                     }
@@ -706,7 +733,7 @@ impl<'a, 'input> Loader<'a, 'input> {
                 );
             }
         }
-        Ok(BsdfDef { material: m })
+        Ok(BsdfDef { material: m, vertex_colors })
     }
 
     // ---- shapes and emitters ---------------------------------------------------------------------
@@ -762,6 +789,12 @@ impl<'a, 'input> Loader<'a, 'input> {
                 _ => return Err(self.unknown_child(c, node)),
             }
         }
+        let vertex_colors = bsdf.as_ref().is_some_and(|(def, _)| def.vertex_colors);
+        if vertex_colors && kind != "ply" {
+            return Err(
+                self.unsupported(node, format!("a 'vertex_color' reflectance on a '{kind}' shape (only PLY files carry vertex colours)"))
+            );
+        }
         let material = self.shape_material(bsdf, emission, &kind, node);
         let label = self.attr(node, "id")?.unwrap_or_else(|| format!("{kind} (line {})", self.line(node)));
         let meshes = match kind.as_str() {
@@ -779,7 +812,19 @@ impl<'a, 'input> Loader<'a, 'input> {
             }
             "ply" => {
                 let file = file.ok_or_else(|| self.malformed(node, "needs <string name=\"filename\">"))?;
-                vec![crate::ply_loader::load_mesh(&file, 0).map_err(|e| crate::toml_loader::referenced_by(e, &self.where_(node)))?]
+                let mesh = crate::ply_loader::load_mesh_with(&file, 0, PlyColors::Mitsuba)
+                    .map_err(|e| crate::toml_loader::referenced_by(e, &self.where_(node)))?;
+                if vertex_colors && mesh.colors.is_empty() {
+                    return Err(self.malformed(node, "its reflectance reads 'vertex_color', but the PLY file has no red/green/blue"));
+                }
+                if vertex_colors && mesh.colors.iter().any(|c| c.max_element() > 1.0) {
+                    // Mitsuba 3.9.1 reads 8-bit colours unscaled (and warns the same way).
+                    self.scene.warnings.push(format!(
+                        "{}: vertex colours above 1 (integer colours are read unscaled, as Mitsuba does)",
+                        self.where_(node)
+                    ));
+                }
+                vec![mesh]
             }
             "rectangle" => vec![rectangle_mesh(&label)],
             "cube" => vec![box_mesh(&label, 0, Vec3::ONE)],
@@ -797,6 +842,9 @@ impl<'a, 'input> Loader<'a, 'input> {
         };
         for mut mesh in meshes {
             mesh.material = material;
+            if !vertex_colors {
+                mesh.colors.clear();
+            }
             if face_normals {
                 mesh.normals.clear();
             }
@@ -825,7 +873,7 @@ impl<'a, 'input> Loader<'a, 'input> {
             let mut m =
                 Material { name: format!("{kind} (line {}) default", self.line(node)), base_color: Vec3::splat(0.5), ..Default::default() };
             m.set_lambertian();
-            (BsdfDef { material: m }, None)
+            (BsdfDef { material: m, vertex_colors: false }, None)
         });
         if let Some((e, texture)) = emission {
             let mut m = def.material;

@@ -1,7 +1,8 @@
 //! PLY meshes (ASCII, binary little- and big-endian) through `ply-rs-bw`: positions (`x y z`),
 //! optional normals (`nx ny nz`), texture coordinates (`u v`, `s t` or `texture_u texture_v`)
 //! and vertex colours (`red green blue`: 8- or 16-bit integers scaled to [0, 1], floats as they
-//! are; sRGB-decoded, since scanners and MeshLab write display colours), and faces
+//! are; sRGB-decoded, since scanners and MeshLab write display colours; Mitsuba's scenes read
+//! them as Mitsuba does, [`PlyColors`]), and faces
 //! (`vertex_indices` or `vertex_index`) of three or more vertices, fanned into triangles. Other
 //! elements and properties (alpha, edges) are read past and ignored.
 //!
@@ -26,15 +27,30 @@ pub fn load(path: &Path) -> Result<Scene, SceneError> {
     Ok(scene)
 }
 
+/// How a PLY file's vertex colours are read.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlyColors {
+    /// Display colours (scanners, MeshLab): integers scaled to [0, 1], then sRGB-decoded.
+    Display,
+    /// Mitsuba 3's reading (measured in 3.9.1 through its `mesh_attribute`): every value as it is
+    /// stored, linear, integers not scaled (its loader warns that they should be in [0, 1]).
+    Mitsuba,
+}
+
 /// Reads `path` into one mesh with material `material`. Vertex uvs keep the file's values: PLY
 /// has no orientation convention, and Mitsuba 3 (whose scenes carry PLY files) reads them as is.
 pub fn load_mesh(path: &Path, material: u32) -> Result<Mesh, SceneError> {
+    load_mesh_with(path, material, PlyColors::Display)
+}
+
+/// [`load_mesh`] with the vertex colours read as `colors` says.
+pub fn load_mesh_with(path: &Path, material: u32, colors: PlyColors) -> Result<Mesh, SceneError> {
     let bytes = std::fs::read(path).map_err(|e| SceneError::io(path, format!("cannot read the PLY file: {e}")))?;
-    parse(&bytes, path, material)
+    parse(&bytes, path, material, colors)
 }
 
 /// Parses PLY bytes; `path` names them in errors.
-pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneError> {
+pub fn parse(bytes: &[u8], path: &Path, material: u32, colors: PlyColors) -> Result<Mesh, SceneError> {
     let err = |m: String| SceneError::parse(path, m);
     if !bytes.starts_with(b"ply") {
         return Err(err("line 1: not a PLY file (it must start with 'ply')".into()));
@@ -62,7 +78,11 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
     for v in vertices {
         let [x, y, z, nx, ny, nz, u, w, r, g, b] = v.values;
         if has_colors {
-            mesh.colors.push(Vec3::new(r, g, b).map(srgb_decode));
+            let stored = Vec3::new(r, g, b);
+            mesh.colors.push(match colors {
+                PlyColors::Display => (stored * v.color_scale).map(srgb_decode),
+                PlyColors::Mitsuba => stored,
+            });
         }
         mesh.positions.push(Vec3::new(x, y, z));
         if has_normals {
@@ -98,15 +118,18 @@ pub fn parse(bytes: &[u8], path: &Path, material: u32) -> Result<Mesh, SceneErro
 /// One element of any kind, kept compact (a map per vertex would cost ~10× the memory): the
 /// vertex slots glimpse reads and a face's index list; other properties are dropped as read.
 struct Element {
-    /// x, y, z, nx, ny, nz, u, v, red, green, blue.
+    /// x, y, z, nx, ny, nz, u, v, red, green, blue (the colours as stored).
     values: [f32; 11],
+    /// What the stored colours are multiplied by to span [0, 1]: 1/255 for 8-bit integers,
+    /// 1/65535 for 16-bit ones, 1 for floats.
+    color_scale: f32,
     /// The face's vertex indices, or why they cannot be used.
     indices: Result<Vec<u32>, &'static str>,
 }
 
 impl PropertyAccess for Element {
     fn new() -> Self {
-        Self { values: [0.0; 11], indices: Err("no 'vertex_indices' list") }
+        Self { values: [0.0; 11], color_scale: 1.0, indices: Err("no 'vertex_indices' list") }
     }
 
     fn set_property(&mut self, name: &str, property: Property) -> PropertyAccessResult {
@@ -126,13 +149,14 @@ impl PropertyAccess for Element {
                     _ => 10,
                 };
                 // Integer colours span their type's range; float ones are in [0, 1].
-                self.values[slot] = match property {
-                    Property::UChar(c) => c as f32 / 255.0,
-                    Property::UShort(c) => c as f32 / 65535.0,
-                    other => match other.to_f32_lossy() {
-                        Some(c) => c,
-                        None => return PropertyAccessResult::UnsupportedType,
-                    },
+                self.color_scale = match property {
+                    Property::UChar(_) => 1.0 / 255.0,
+                    Property::UShort(_) => 1.0 / 65535.0,
+                    _ => 1.0,
+                };
+                self.values[slot] = match property.to_f32_lossy() {
+                    Some(c) => c,
+                    None => return PropertyAccessResult::UnsupportedType,
                 };
                 return PropertyAccessResult::Set;
             }
@@ -208,7 +232,7 @@ mod tests {
 
     #[test]
     fn an_ascii_quad_becomes_two_triangles_with_uvs() {
-        let m = parse(QUAD_ASCII.as_bytes(), Path::new("quad.ply"), 7).unwrap();
+        let m = parse(QUAD_ASCII.as_bytes(), Path::new("quad.ply"), 7, PlyColors::Display).unwrap();
         assert_eq!(m.positions.len(), 4);
         assert_eq!(m.indices, vec![[0, 1, 2], [0, 2, 3]]);
         assert_eq!(m.uvs[2], Vec2::new(1.0, 1.0));
@@ -219,7 +243,7 @@ mod tests {
     #[test]
     fn a_count_larger_than_the_file_is_refused_before_reading() {
         let text = QUAD_ASCII.replace("element vertex 4", "element vertex 4000000000");
-        let e = parse(text.as_bytes(), Path::new("big.ply"), 0).unwrap_err().to_string();
+        let e = parse(text.as_bytes(), Path::new("big.ply"), 0, PlyColors::Display).unwrap_err().to_string();
         assert!(e.contains("big.ply") && e.contains("4000000000 'vertex'"), "{e}");
     }
 }

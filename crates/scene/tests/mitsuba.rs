@@ -302,3 +302,52 @@ fn normal_maps_and_textured_emitters_load_from_mitsuba() {
     assert!((light.emission - scene.textures[e.texture as usize].mean()).length() < 1e-4, "{}", light.emission);
     assert!(scene.textures[e.texture as usize].pixels.iter().any(|p| p.x == 40.0), "the EXR's radiance as it is");
 }
+
+/// A PLY mesh's vertex colours are its reflectance only through a `mesh_attribute` texture
+/// (`vertex_color`), read as Mitsuba 3.9.1 reads them: floats as they are (linear), integers
+/// unscaled (with a warning). A mesh whose BSDF does not read them is drawn without them, as in
+/// Mitsuba. Other attributes and other shapes are errors naming the file.
+#[test]
+fn vertex_colours_load_from_mitsuba_through_mesh_attribute() {
+    let dir = scratch("mitsuba_vertex_colours");
+    let ply = |name: &str, kind: &str, colours: [&str; 3]| {
+        let body = format!(
+            "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\n\
+             property {kind} red\nproperty {kind} green\nproperty {kind} blue\nelement face 1\n\
+             property list uchar int vertex_indices\nend_header\n0 0 0 {}\n1 0 0 {}\n0 1 0 {}\n3 0 1 2\n",
+            colours[0], colours[1], colours[2]
+        );
+        write(&dir, name, body);
+    };
+    ply("f.ply", "float", ["0.5 0.25 0", "0 1 0", "0 0 1"]);
+    ply("u.ply", "uchar", ["128 0 0", "0 255 0", "0 0 255"]);
+    let attribute = r#"<texture type="mesh_attribute" name="reflectance"><string name="name" value="vertex_color"/></texture>"#;
+    let shape = |file: &str, reflectance: &str| {
+        format!(r#"<shape type="ply"><string name="filename" value="{file}"/><bsdf type="diffuse">{reflectance}</bsdf></shape>"#)
+    };
+    let s = load(&write(&dir, "f.xml", xml(&shape("f.ply", attribute)))).unwrap();
+    println!("float colours {:?}, base colour {}", s.meshes[0].colors, s.materials[0].base_color);
+    assert_eq!(s.meshes[0].colors, vec![Vec3::new(0.5, 0.25, 0.0), Vec3::Y, Vec3::Z], "linear, not sRGB-decoded");
+    assert_eq!(s.materials[0].base_color, Vec3::ONE);
+    let s = load(&write(&dir, "u.xml", xml(&shape("u.ply", attribute)))).unwrap();
+    println!("8-bit colours {:?}; warnings {:?}", s.meshes[0].colors, s.warnings);
+    assert_eq!(s.meshes[0].colors[0], Vec3::new(128.0, 0.0, 0.0), "unscaled, as Mitsuba 3.9.1 reads them");
+    assert!(s.warnings.iter().any(|w| w.contains("vertex colours above 1")), "{:?}", s.warnings);
+    // Not read by the BSDF: no colours.
+    let s = load(&write(&dir, "plain.xml", xml(&shape("f.ply", r#"<rgb name="reflectance" value="0.3"/>"#)))).unwrap();
+    assert!(s.meshes[0].colors.is_empty(), "Mitsuba ignores colours its BSDF does not read");
+    // Another attribute, or vertex colours on a shape that has none.
+    let other = attribute.replace("vertex_color", "face_color");
+    let e = one_line_error(&write(&dir, "other.xml", xml(&shape("f.ply", &other))), "other.xml");
+    assert!(e.contains("only 'vertex_color'"), "{e}");
+    let cube = format!(r#"<shape type="cube"><bsdf type="diffuse">{attribute}</bsdf></shape>"#);
+    let e = one_line_error(&write(&dir, "cube.xml", xml(&cube)), "cube.xml");
+    assert!(e.contains("only PLY files carry vertex colours"), "{e}");
+    write(
+        &dir,
+        "none.ply",
+        "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\nproperty float y\nproperty float z\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n0 0 0\n1 0 0\n0 1 0\n3 0 1 2\n",
+    );
+    let e = one_line_error(&write(&dir, "none.xml", xml(&shape("none.ply", attribute))), "none.xml");
+    assert!(e.contains("no red/green/blue"), "{e}");
+}

@@ -36,3 +36,15 @@ albedo[(y4 == 0)] *= 1.2
 albedo[(x4 == 0) & (y4 == 0)] = [0.8, 0.15, 0.1]
 Image.fromarray((np.clip(albedo, 0, 1) ** (1 / 2.2) * 255).round().astype(np.uint8), "RGB").save("albedo.png")
 print("normal.png", n.shape, "bars.exr", bars.shape, "albedo.png", albedo.shape)
+
+# colors.ply: a 1.2 x 0.9 m quad (facing +z) whose corners carry linear float vertex colours
+# (Mitsuba reads floats as they are; mid-grey 0.5 would be 0.21 if sRGB-decoded): reddish,
+# greenish, bluish and grey, so a mirrored or decoded reading shows.
+corners = [(-1.5, 0.0, -0.9, 0.6, 0.25, 0.2), (-0.3, 0.0, -0.9, 0.2, 0.6, 0.25), (-0.3, 0.9, -0.9, 0.25, 0.2, 0.6), (-1.5, 0.9, -0.9, 0.5, 0.5, 0.5)]
+with open("colors.ply", "w") as f:
+    f.write("ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\nproperty float z\n")
+    f.write("property float red\nproperty float green\nproperty float blue\nelement face 2\nproperty list uchar int vertex_indices\nend_header\n")
+    for c in corners:
+        f.write(" ".join(f"{v:g}" for v in c) + "\n")
+    f.write("3 0 1 2\n3 0 2 3\n")  # two triangles: the interpolation is the same in both renderers
+print("colors.ply", len(corners), "vertices")
