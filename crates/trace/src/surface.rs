@@ -87,7 +87,7 @@ impl SurfacePoint {
                 // placement reverses: B follows the placement, n × T does not).
                 let [t0, t1, t2] = [mesh.tangents[i0], mesh.tangents[i1], mesh.tangents[i2]];
                 let tangent = Mat3::from_mat4(m) * (t0.truncate() * b0 + t1.truncate() * hit.b1 + t2.truncate() * hit.b2);
-                let sign = if t0.w < 0.0 { -1.0 } else { 1.0 } * if m.determinant() < 0.0 { -1.0 } else { 1.0 };
+                let sign = t0.w.signum() * m.determinant().signum();
                 map.perturb_along(texture, uv, authored, tangent, sign)
             } else {
                 let uvs = [mesh.uvs[i0], mesh.uvs[i1], mesh.uvs[i2]];
