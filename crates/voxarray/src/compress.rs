@@ -175,14 +175,22 @@ pub fn compress_slabs<R: Row>(
         /// Per row, its index into `distinct`.
         ids: Vec<u32>,
     }
+    /// One thread's slab buffer and row table.
+    type Scratch<R> = (Vec<R>, FxHashMap<R, u32>);
+    let pool: std::sync::Mutex<Vec<Scratch<R>>> = std::sync::Mutex::new(Vec::new());
     let parts: Vec<Slab<R>> = (0..slabs)
         .into_par_iter()
-        .map_init(
-            || vec![R::ZERO; slab_rows],
-            |buf, k| {
+        .map(|k| {
+            // A slab buffer and row table per thread, reused slab after slab: rayon's
+            // `map_init` makes them per job, not per thread, and a fresh 24 MB buffer faults in
+            // zeroed pages for every slab (with the table's growth, a quarter of the build).
+            let mut scratch =
+                pool.lock().unwrap_or_else(|e| e.into_inner()).pop().unwrap_or_else(|| (vec![R::ZERO; slab_rows], FxHashMap::default()));
+            let slab = {
+                let (buf, local) = (&mut scratch.0, &mut scratch.1);
                 buf.fill(R::ZERO);
                 fill(k, buf);
-                let mut local: FxHashMap<R, u32> = FxHashMap::default();
+                local.clear();
                 let mut distinct: Vec<(R, u64)> = Vec::new();
                 // Neighbouring rows are mostly equal (empty space, a wall's run): the previous
                 // row's id skips the hash lookup (the same ids, in the same order).
@@ -203,8 +211,10 @@ pub fn compress_slabs<R: Row>(
                     })
                     .collect();
                 Slab { distinct, ids }
-            },
-        )
+            };
+            pool.lock().unwrap_or_else(|e| e.into_inner()).push(scratch);
+            slab
+        })
         .collect();
     // Lines 1–2 over the slabs' counts.
     let mut counts: FxHashMap<R, u64> = FxHashMap::default();
