@@ -312,10 +312,14 @@ pub fn voxelize_slab<R: Row>(triangles: &[[Vec3; 3]], grid: &Grid, dirs: &Direct
     let per_vox = (R::BITS as usize).pow(2);
     let half = dirs.n as usize / 2;
     let (first, second) = slab.split_at_mut(half * per_vox);
+    // `Grid::to_cells` in two parts: the grid's offset and scale once per slab, the rotation per
+    // voxelization (the same operations in the same order, so the same cells).
+    let scaled: Vec<[Vec3; 3]> = triangles.iter().map(|t| t.map(|p| (p - grid.center) * grid.scale)).collect();
+    let half_grid = Vec3::splat(grid.resolution as f32 * 0.5);
     for j in 0..half {
         let r = dirs.rotation(i as u32, j as u32);
         let vox = &mut first[j * per_vox..(j + 1) * per_vox];
-        sp_voxelization(triangles.iter().map(|t| t.map(|p| grid.to_cells(&r, p))), vox);
+        sp_voxelization(scaled.iter().map(|t| t.map(|q| r * q + half_grid)), vox);
         transpose(vox, &mut second[j * per_vox..(j + 1) * per_vox]);
     }
 }

@@ -213,6 +213,8 @@ fn check_04_transposition_identity() {
         for j in 0..3u32 {
             let v = &rows[(i * 6 + j) as usize * per..][..per];
             let t = &rows[(i * 6 + j + 3) as usize * per..][..per];
+            // The rasterized half is the direct voxelization at its rotation, bit for bit.
+            assert!(v == voxelize::voxelize_direct::<u32>(&tris, &a.grid, &a.dirs.rotation(i, j)), "V[{i}][{j}]");
             // Exactly a permutation of V[i][j].
             let mut again = vec![0u32; per];
             voxelize::transpose(v, &mut again);
