@@ -257,8 +257,39 @@ pub fn area_irradiance(frame: &SceneFrame, vis: &dyn Visibility, s: &Shading, rn
 }
 
 /// Exact irradiance from the punctual lights `lights` at `s`; returns (irradiance, rays).
+/// [`punctual_irradiance_with`] with `vis`, its shadow rays asked together
+/// ([`Visibility::occluded_batch`]: the exact tracer traces one point's rays as packets) and
+/// the irradiance summed in the lights' order, so the result is the same.
 pub fn punctual_irradiance(lights: &[WorldLight], vis: &dyn Visibility, s: &Shading) -> (Vec3, u64) {
-    punctual_irradiance_with(lights, s, |_, ps| vis.occluded(&ps.shadow, ps.t_max))
+    const CHUNK: usize = 64;
+    if lights.len() < 2 {
+        return punctual_irradiance_with(lights, s, |_, ps| vis.occluded(&ps.shadow, ps.t_max));
+    }
+    let (mut e, mut decisions) = (Vec3::ZERO, 0);
+    let mut terms = Vec::with_capacity(lights.len().min(CHUNK));
+    let mut segments = Vec::with_capacity(lights.len().min(CHUNK));
+    let mut blocked = [false; CHUNK];
+    for chunk in lights.chunks(CHUNK) {
+        terms.clear();
+        segments.clear();
+        for light in chunk {
+            let ps = punctual(light, s.position, s.normal, s.error_scale);
+            let cos = s.cos(ps.wi);
+            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
+                continue;
+            }
+            terms.push(ps.irradiance * cos);
+            segments.push((ps.shadow, ps.t_max));
+        }
+        vis.occluded_batch(&segments, &mut blocked[..segments.len()]);
+        for (t, b) in terms.iter().zip(&blocked) {
+            if !b {
+                e += *t;
+            }
+        }
+        decisions += segments.len() as u64;
+    }
+    (e, decisions)
 }
 
 /// Irradiance from the punctual lights `lights` at `s` with shadows decided by

@@ -65,6 +65,10 @@ impl Visibility for ExactTracer {
     fn occluded_cached(&self, ray: &Ray, t_max: f32, cache: &mut ShadowCache) -> bool {
         ExactTracer::occluded_cached(self, ray, t_max, cache)
     }
+
+    fn occluded_batch(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        self.occluded_many(rays, out)
+    }
 }
 
 impl ClosestHit for ExactTracer {

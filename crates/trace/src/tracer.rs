@@ -219,6 +219,40 @@ impl ExactTracer {
         found.is_some()
     }
 
+    /// [`occluded`](Self::occluded) for a batch of rays, `out[i]` for `rays[i]`. Rays that share
+    /// an origin and point nearly the same way (one point's rays to neighbouring lights) enter
+    /// mostly the same nodes: in a static scene (one world-space BLAS) they go down the tree
+    /// together, [`PACKET`] at a time, each node fetched once for all the rays that enter it.
+    /// Each ray's box tests and triangle tests are its own traversal's, so each answer is
+    /// `occluded`'s.
+    pub fn occluded_many(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
+        assert_eq!(rays.len(), out.len(), "one answer per ray");
+        let single = match &self.entries[..] {
+            [e] if e.identity => Some(&self.blases[e.blas as usize]),
+            _ => None,
+        };
+        let Some(blas) = single else {
+            for ((ray, t_max), o) in rays.iter().zip(out) {
+                *o = self.occluded(ray, *t_max);
+            }
+            return;
+        };
+        // The triangle that blocked a ray of the previous packet is tried first (the shadow
+        // cache of `occluded_cached`: neighbouring lights are often hidden by one triangle).
+        let mut blocker = None;
+        for (rays, out) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+            // A few rays: a small packet, whose set-up costs no more than the rays.
+            blocker = match rays.len() {
+                1 => {
+                    out[0] = self.occluded(&rays[0].0, rays[0].1);
+                    blocker
+                }
+                2..=8 => occluded_packet::<8>(blas, self.cutouts.as_deref(), rays, out, blocker),
+                _ => occluded_packet::<PACKET>(blas, self.cutouts.as_deref(), rays, out, blocker),
+            };
+        }
+    }
+
     /// The closest hit at `0 < t < t_max`.
     pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         self.trace::<false>(ray, t_max).map(|f| f.hit)
@@ -303,6 +337,98 @@ impl ExactTracer {
             _ => trace_blas::<ANY, 2>(blas, ids, cut, &local, t_max, best),
         }
     }
+}
+
+/// Rays traced together by [`ExactTracer::occluded_many`].
+pub const PACKET: usize = 64;
+
+/// Any-hit for up to `N` ≤ 64 rays through one world-space BLAS: a stack of (node or leaf,
+/// the rays that entered it); a ray leaves every entry once it is found occluded. Triangle slot
+/// `first_try` is tested first; returns the slot of a triangle that blocked a ray.
+fn occluded_packet<const N: usize>(
+    blas: &Blas,
+    cut: Option<&Cutouts>,
+    rays: &[(Ray, f32)],
+    out: &mut [bool],
+    first_try: Option<usize>,
+) -> Option<usize> {
+    let n = rays.len();
+    debug_assert!(n <= N && N <= 64);
+    let nodes = &blas.wide.nodes;
+    let mut prepared = [PreparedRay::new(&Ray::new(glimpse_core::Vec3::ZERO, glimpse_core::Vec3::Z)); N];
+    for (p, (ray, _)) in prepared.iter_mut().zip(rays) {
+        *p = PreparedRay::new(ray);
+    }
+    let ray4: [Ray4; N] = std::array::from_fn(|i| Ray4::new(&prepared[i]));
+    let mut t_max = [0.0f32; N];
+    for (t, (_, tm)) in t_max.iter_mut().zip(rays) {
+        *t = *tm;
+    }
+    // Rays not yet found occluded.
+    let mut open: u64 = if n == 64 { u64::MAX } else { (1 << n) - 1 };
+    let mut blocker = None;
+    // Whether triangle `i` blocks ray `r`.
+    let blocks = |i: usize, r: usize| {
+        prepared[r].intersect_triangle(&blas.triangles[i], t_max[r]).is_some_and(|(_, b1, b2)| {
+            let id = blas.ids[i];
+            !cut.is_some_and(|c| c.hole(id.instance, id.triangle, b1, b2))
+        })
+    };
+    if let Some(i) = first_try.filter(|&i| i < blas.triangles.len()) {
+        for r in 0..n {
+            if blocks(i, r) {
+                open &= !(1 << r);
+                blocker = Some(i);
+            }
+        }
+    }
+    let mut stack: Vec<(u32, u32, u64)> = Vec::with_capacity(64);
+    if !nodes.is_empty() && open != 0 {
+        stack.push((0, 0, open));
+    }
+    while let Some((child, count, mask)) = stack.pop() {
+        let mask = mask & open;
+        if mask == 0 {
+            continue;
+        }
+        if count == 0 {
+            let node = &nodes[child as usize];
+            let mut entered = [0u64; WIDTH];
+            let mut bits = mask;
+            while bits != 0 {
+                let r = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (m, _) = ray4[r].enter(node, t_max[r]);
+                for (slot, e) in entered.iter_mut().enumerate() {
+                    *e |= (((m >> slot) & 1) as u64) << r;
+                }
+            }
+            for slot in (0..WIDTH).rev() {
+                if entered[slot] != 0 {
+                    stack.push((node.child[slot], node.count[slot], entered[slot]));
+                }
+            }
+            continue;
+        }
+        for i in child as usize..(child + count) as usize {
+            let mut bits = mask & open;
+            while bits != 0 {
+                let r = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                if blocks(i, r) {
+                    open &= !(1 << r);
+                    blocker = Some(i);
+                }
+            }
+        }
+        if open == 0 {
+            break;
+        }
+    }
+    for (r, o) in out.iter_mut().enumerate() {
+        *o = open & (1 << r) == 0;
+    }
+    blocker
 }
 
 /// A triangle of the tracer: its TLAS entry and its slot in that entry's BLAS.

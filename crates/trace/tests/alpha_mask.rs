@@ -75,6 +75,24 @@ fn masked_texels_are_holes_for_every_query() {
     assert!(tracer.occluded_cached(&down(0.8, -0.5), 1.5, &mut cache));
 }
 
+/// Rays traced together (`occluded_many`, a static scene's packets) see the same holes, and
+/// a triangle remembered from one packet's opaque part answers nothing through its holes.
+#[test]
+fn packets_see_the_holes() {
+    let mut scene = scene();
+    scene.instances.retain(|i| i.motion.is_static());
+    let frame = scene.at(0.0);
+    let tracer = ExactTracer::build(&frame);
+    let rays: Vec<(Ray, f32)> = (0..40 * 40).map(|k| (down(-1.2 + 0.06 * (k % 40) as f32, -1.2 + 0.06 * (k / 40) as f32), 1.5)).collect();
+    let mut packed = vec![false; rays.len()];
+    tracer.occluded_many(&rays, &mut packed);
+    let one_by_one: Vec<bool> = rays.iter().map(|(r, t)| tracer.occluded(r, *t)).collect();
+    let blocked = one_by_one.iter().filter(|&&b| b).count();
+    println!("{blocked} of {} rays blocked by the leaf's opaque texels", rays.len());
+    assert!(blocked > 100 && blocked < rays.len() - 100, "both holes and leaf are crossed");
+    assert_eq!(packed, one_by_one);
+}
+
 /// A scene without masks builds no coverage at all, and the same quad unmasked is opaque.
 #[test]
 fn an_unmasked_quad_is_opaque_everywhere() {

@@ -40,6 +40,11 @@ fn compare(scene: &Scene, time: f32, rays: usize) -> (f64, f64) {
         closest_ok += same as usize;
     }
     let n = rays.len() as f64;
+    // The same rays together (packets in a static scene, one by one otherwise): the oracle's.
+    let mut packed = vec![false; rays.len()];
+    bvh.occluded_many(&rays, &mut packed);
+    let packet_wrong = rays.iter().zip(&packed).filter(|((ray, t_max), p)| brute.occluded(ray, *t_max) != **p).count();
+    assert_eq!(packet_wrong, 0, "occluded_many differs from the oracle on incoherent rays");
     assert_eq!(shadow_cache_disagreements(&bvh, &brute, &frame), 0, "the shadow cache changed an answer");
     (any_ok as f64 / n, closest_ok as f64 / n)
 }
@@ -52,21 +57,28 @@ fn shadow_cache_disagreements(bvh: &ExactTracer, brute: &BruteForce, frame: &gli
     let mut rng = Rng::new(17, 2);
     let mut point = || b.min + (b.max - b.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
     let (mut wrong, mut blocked, mut rays) = (0, 0, 0);
-    for _ in 0..200 {
+    for bundle in 0..200 {
         let (origin, target) = (point(), point());
         let mut cache = ShadowCache::default();
-        for k in 0..32 {
+        // Bundles of several sizes, so that packets come full, partial and split in two.
+        let count = [32, 64, 100][bundle % 3];
+        let mut segments = Vec::with_capacity(count);
+        for k in 0..count {
             let jitter = Vec3::new((k % 4) as f32, ((k / 4) % 4) as f32, (k / 16) as f32) * 0.05;
             let to = target + jitter - origin;
-            let (ray, t_max) = (Ray::new(origin, to.normalize()), to.length());
-            let cached = bvh.occluded_cached(&ray, t_max, &mut cache);
-            let oracle = brute.occluded(&ray, t_max);
-            wrong += (cached != oracle) as usize;
+            segments.push((Ray::new(origin, to.normalize()), to.length()));
+        }
+        let mut packed = vec![false; count];
+        bvh.occluded_many(&segments, &mut packed);
+        for ((ray, t_max), p) in segments.iter().zip(packed) {
+            let cached = bvh.occluded_cached(ray, *t_max, &mut cache);
+            let oracle = brute.occluded(ray, *t_max);
+            wrong += (cached != oracle) as usize + (p != oracle) as usize;
             blocked += oracle as usize;
             rays += 1;
         }
     }
-    println!("shadow cache: {blocked} of {rays} coherent shadow rays blocked, {wrong} answers differ from the oracle");
+    println!("shadow cache and packets: {blocked} of {rays} coherent shadow rays blocked, {wrong} answers differ from the oracle");
     wrong
 }
 
