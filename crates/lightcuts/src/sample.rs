@@ -17,7 +17,7 @@ use crate::tree::{Sst, SstNode};
 use crate::vpl::Similarity;
 use glimpse_core::ray::offset_origin;
 use glimpse_core::{Rng, Vec3};
-use glimpse_render::direct::{Shading, segment};
+use glimpse_render::direct::{Shading, segment, sum_unblocked};
 use glimpse_trace::{ShadowCache, Visibility};
 use std::f32::consts::PI;
 
@@ -269,31 +269,16 @@ impl Sampler<'_> {
 
 /// The exact sum over every VPL (leaf) with a shadow ray each: `vpl-exact`'s pixel.
 pub fn brute_force(tree: &Sst, vis: &dyn Visibility, s: &Shading, clamp2: f32) -> (Vec3, u64) {
-    let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
     // The leaves are in Morton order, so consecutive VPLs are near each other: their shadow
-    // rays from this point go down the tree together (`Visibility::occluded_batch`).
-    let mut terms = Vec::with_capacity(glimpse_trace::tracer::PACKET);
-    let mut segments = Vec::with_capacity(glimpse_trace::tracer::PACKET);
-    let mut blocked = [false; glimpse_trace::tracer::PACKET];
-    for leaves in tree.nodes[tree.leaves as usize..].chunks(glimpse_trace::tracer::PACKET) {
-        terms.clear();
-        segments.clear();
-        for leaf in leaves {
-            let t = vpl_term(s, leaf.pos, leaf.normal, leaf.color, clamp2);
-            if t != Vec3::ZERO {
-                terms.push(t);
-                segments.push(segment(s.position, s.normal, s.error_scale, offset_origin(leaf.pos, leaf.normal, leaf.error_scale)));
-            }
-        }
-        vis.occluded_batch(&segments, &mut blocked[..segments.len()]);
-        for (t, b) in terms.iter().zip(&blocked) {
-            if !b {
-                sum += *t;
-            }
-        }
-        rays += segments.len() as u64;
-    }
-    (sum, rays)
+    // rays from this point go down the tree together (`sum_unblocked`).
+    let lit = tree.nodes[tree.leaves as usize..].iter().filter_map(|leaf| {
+        let t = vpl_term(s, leaf.pos, leaf.normal, leaf.color, clamp2);
+        (t != Vec3::ZERO).then(|| {
+            let (ray, t_max) = segment(s.position, s.normal, s.error_scale, offset_origin(leaf.pos, leaf.normal, leaf.error_scale));
+            (t, ray, t_max)
+        })
+    });
+    sum_unblocked(vis, lit, |&t| t)
 }
 
 #[cfg(test)]

@@ -17,6 +17,7 @@ use crate::{FrameContext, ParamError, RenderError, Settings};
 use glimpse_core::ray::offset_origin;
 use glimpse_core::{Image, Ray, Rng, Vec2, Vec3};
 use glimpse_scene::{Environment, SceneFrame, WorldLight};
+use glimpse_trace::tracer::PACKET;
 use glimpse_trace::{GBuffer, SurfacePoint, Visibility};
 use rayon::prelude::*;
 use std::collections::HashMap;
@@ -256,40 +257,46 @@ pub fn area_irradiance(frame: &SceneFrame, vis: &dyn Visibility, s: &Shading, rn
     if vis.occluded(&ls.shadow, ls.t_max) { (Vec3::ZERO, 1) } else { (ls.radiance * (cos / ls.pdf), 1) }
 }
 
-/// Exact irradiance from the punctual lights `lights` at `s`; returns (irradiance, rays).
-/// [`punctual_irradiance_with`] with `vis`, its shadow rays asked together
-/// ([`Visibility::occluded_batch`]: the exact tracer traces one point's rays as packets) and
-/// the irradiance summed in the lights' order, so the result is the same.
+/// Exact irradiance from the punctual lights `lights` at `s`; returns (irradiance, rays):
+/// [`punctual_irradiance_with`] with `vis`, its shadow rays asked together ([`sum_unblocked`]).
 pub fn punctual_irradiance(lights: &[WorldLight], vis: &dyn Visibility, s: &Shading) -> (Vec3, u64) {
-    const CHUNK: usize = 64;
-    if lights.len() < 2 {
-        return punctual_irradiance_with(lights, s, |_, ps| vis.occluded(&ps.shadow, ps.t_max));
-    }
-    let (mut e, mut decisions) = (Vec3::ZERO, 0);
-    let mut terms = Vec::with_capacity(lights.len().min(CHUNK));
-    let mut segments = Vec::with_capacity(lights.len().min(CHUNK));
-    let mut blocked = [false; CHUNK];
-    for chunk in lights.chunks(CHUNK) {
-        terms.clear();
+    let items = lights.iter().filter_map(|light| {
+        let ps = punctual(light, s.position, s.normal, s.error_scale);
+        let cos = s.cos(ps.wi);
+        (cos > 0.0 && ps.irradiance.max_element() > 0.0).then(|| (ps.irradiance * cos, ps.shadow, ps.t_max))
+    });
+    sum_unblocked(vis, items, |&e| e)
+}
+
+/// Σ `value(item)` over the items `(item, shadow ray, t_max)` whose segment `vis` finds
+/// unblocked, summed in the items' order; returns (sum, segments asked). The segments go to
+/// `vis` [`PACKET`] at a time ([`Visibility::occluded_batch`]: the exact tracer traces one
+/// point's rays as packets), so the sum is the one a ray-at-a-time loop makes.
+pub fn sum_unblocked<V: Visibility + ?Sized, T>(
+    vis: &V,
+    items: impl IntoIterator<Item = (T, Ray, f32)>,
+    value: impl Fn(&T) -> Vec3,
+) -> (Vec3, u64) {
+    let (mut sum, mut asked) = (Vec3::ZERO, 0u64);
+    let (mut held, mut segments) = (Vec::with_capacity(PACKET), Vec::with_capacity(PACKET));
+    let mut blocked = [false; PACKET];
+    let mut items = items.into_iter().peekable();
+    while items.peek().is_some() {
+        held.clear();
         segments.clear();
-        for light in chunk {
-            let ps = punctual(light, s.position, s.normal, s.error_scale);
-            let cos = s.cos(ps.wi);
-            if cos <= 0.0 || ps.irradiance.max_element() <= 0.0 {
-                continue;
-            }
-            terms.push(ps.irradiance * cos);
-            segments.push((ps.shadow, ps.t_max));
+        for (item, ray, t_max) in items.by_ref().take(PACKET) {
+            held.push(item);
+            segments.push((ray, t_max));
         }
         vis.occluded_batch(&segments, &mut blocked[..segments.len()]);
-        for (t, b) in terms.iter().zip(&blocked) {
+        for (item, b) in held.iter().zip(&blocked) {
             if !b {
-                e += *t;
+                sum += value(item);
             }
         }
-        decisions += segments.len() as u64;
+        asked += segments.len() as u64;
     }
-    (e, decisions)
+    (sum, asked)
 }
 
 /// Irradiance from the punctual lights `lights` at `s` with shadows decided by

@@ -113,37 +113,25 @@ impl EnvExact {
         };
         let (mut sum, mut rays) = (Vec3::ZERO, 0u64);
         // Cosine-weighted: f cos / pdf = ρ, so each unblocked ray adds ρ L (ρ applied last).
-        // The point's rays are asked together (`occluded_batch`: the exact tracer traces them
-        // as packets) and the light summed in the rays' order, as one at a time would.
-        const CHUNK: u32 = 64;
-        let (mut weighted, mut segments) = (Vec::with_capacity(CHUNK as usize), Vec::with_capacity(CHUNK as usize));
-        let mut blocked = [false; CHUNK as usize];
-        for first in (0..n_cos).step_by(CHUNK as usize) {
-            weighted.clear();
-            segments.clear();
-            for k in first..(first + CHUNK).min(n_cos) {
-                let d = frame.to_world(local(k));
-                let cos = s.cos(d);
-                if cos <= 0.0 {
-                    continue;
-                }
-                let w = if n_env > 0 {
-                    let p_cos = n_cos as f32 * cosine_hemisphere_pdf(cos);
-                    direct::power_heuristic(p_cos, n_env as f32 * env.pdf(d))
-                } else {
-                    1.0
-                };
-                weighted.push((d, w));
-                segments.push((s.spawn(d), f32::INFINITY));
+        // The point's rays are asked together ([`direct::sum_unblocked`]); L is read only for
+        // the unblocked ones.
+        let cosine_rays = (0..n_cos).filter_map(|k| {
+            let d = frame.to_world(local(k));
+            let cos = s.cos(d);
+            if cos <= 0.0 {
+                return None;
             }
-            rays += segments.len() as u64;
-            vis.occluded_batch(&segments, &mut blocked[..segments.len()]);
-            for (&(d, w), b) in weighted.iter().zip(&blocked) {
-                if !b {
-                    sum += env.radiance(d) * (w / n_cos as f32);
-                }
-            }
-        }
+            let w = if n_env > 0 {
+                let p_cos = n_cos as f32 * cosine_hemisphere_pdf(cos);
+                direct::power_heuristic(p_cos, n_env as f32 * env.pdf(d))
+            } else {
+                1.0
+            };
+            Some(((d, w), s.spawn(d), f32::INFINITY))
+        });
+        let (cosine_sum, cosine_count) = direct::sum_unblocked(vis, cosine_rays, |&(d, w)| env.radiance(d) * (w / n_cos as f32));
+        sum += cosine_sum;
+        rays += cosine_count;
         // Importance-sampled map: (ρ/π) L cos / pdf, weighted.
         for _ in 0..n_env {
             let (d, l, pdf) = env.sample(rng.next_2d());

@@ -355,21 +355,16 @@ fn occluded_packet<const N: usize>(
     let n = rays.len();
     debug_assert!(n <= N && N <= 64);
     let nodes = &blas.wide.nodes;
-    let mut prepared = [PreparedRay::new(&Ray::new(glimpse_core::Vec3::ZERO, glimpse_core::Vec3::Z)); N];
-    for (p, (ray, _)) in prepared.iter_mut().zip(rays) {
-        *p = PreparedRay::new(ray);
-    }
+    // Lanes past the rays repeat the last one (never read: they are not in any mask).
+    let prepared: [PreparedRay; N] = std::array::from_fn(|i| PreparedRay::new(&rays[i.min(n - 1)].0));
     let ray4: [Ray4; N] = std::array::from_fn(|i| Ray4::new(&prepared[i]));
-    let mut t_max = [0.0f32; N];
-    for (t, (_, tm)) in t_max.iter_mut().zip(rays) {
-        *t = *tm;
-    }
+    let t_max = |r: usize| rays[r].1;
     // Rays not yet found occluded.
     let mut open: u64 = if n == 64 { u64::MAX } else { (1 << n) - 1 };
     let mut blocker = None;
     // Whether triangle `i` blocks ray `r`.
     let blocks = |i: usize, r: usize| {
-        prepared[r].intersect_triangle(&blas.triangles[i], t_max[r]).is_some_and(|(_, b1, b2)| {
+        prepared[r].intersect_triangle(&blas.triangles[i], t_max(r)).is_some_and(|(_, b1, b2)| {
             let id = blas.ids[i];
             !cut.is_some_and(|c| c.hole(id.instance, id.triangle, b1, b2))
         })
@@ -398,7 +393,7 @@ fn occluded_packet<const N: usize>(
             while bits != 0 {
                 let r = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                let (m, _) = ray4[r].enter(node, t_max[r]);
+                let (m, _) = ray4[r].enter(node, t_max(r));
                 for (slot, e) in entered.iter_mut().enumerate() {
                     *e |= (((m >> slot) & 1) as u64) << r;
                 }
