@@ -117,24 +117,50 @@ pub fn allocate(total: u32, weights: &[f32]) -> Vec<u32> {
 
 /// The pixel the world point `p` projects to, if on screen (inverse of [`Camera::ray`]).
 pub fn project(camera: &Camera, width: u32, height: u32, p: Vec3) -> Option<usize> {
-    let forward = (camera.target - camera.position).normalize();
-    let right = forward.cross(camera.up).normalize();
-    let up = right.cross(forward);
-    let d = p - camera.position;
-    let z = d.dot(forward);
-    if z <= 1e-6 {
-        return None;
+    Projector::new(camera, width, height).pixel(p)
+}
+
+/// [`project`] with the camera's frame and scales computed once: the pVPL estimate projects
+/// four points per RSM texel, a million per frame, and the camera's basis (two normalized
+/// cross products and a tangent) cost as much as the projection itself.
+pub struct Projector {
+    position: Vec3,
+    forward: Vec3,
+    right: Vec3,
+    up: Vec3,
+    /// tan(fov_y / 2) · aspect and tan(fov_y / 2), divided by (not multiplied by reciprocals:
+    /// the pixels, and so the VPLs, stay those of the per-point projection).
+    extent: Vec2,
+    width: u32,
+    height: u32,
+}
+
+impl Projector {
+    pub fn new(camera: &Camera, width: u32, height: u32) -> Self {
+        let forward = (camera.target - camera.position).normalize();
+        let right = forward.cross(camera.up).normalize();
+        let up = right.cross(forward);
+        let tan_half = (camera.fov_y(width, height) * 0.5).tan();
+        let aspect = width as f32 / height as f32;
+        let extent = Vec2::new(tan_half * aspect, tan_half);
+        Self { position: camera.position, forward, right, up, extent, width, height }
     }
-    let tan_half = (camera.fov_y(width, height) * 0.5).tan();
-    let aspect = width as f32 / height as f32;
-    let sx = d.dot(right) / z / (tan_half * aspect);
-    let sy = d.dot(up) / z / tan_half;
-    let px = (sx + 1.0) * 0.5 * width as f32;
-    let py = (1.0 - sy) * 0.5 * height as f32;
-    if px < 0.0 || py < 0.0 || px >= width as f32 || py >= height as f32 {
-        return None;
+
+    pub fn pixel(&self, p: Vec3) -> Option<usize> {
+        let d = p - self.position;
+        let z = d.dot(self.forward);
+        if z <= 1e-6 {
+            return None;
+        }
+        let sx = d.dot(self.right) / z / self.extent.x;
+        let sy = d.dot(self.up) / z / self.extent.y;
+        let px = (sx + 1.0) * 0.5 * self.width as f32;
+        let py = (1.0 - sy) * 0.5 * self.height as f32;
+        if px < 0.0 || py < 0.0 || px >= self.width as f32 || py >= self.height as f32 {
+            return None;
+        }
+        Some(py as usize * self.width as usize + px as usize)
     }
-    Some(py as usize * width as usize + px as usize)
 }
 
 /// A radius with density ∝ min(1, 1/r²) on [0, ∞) (unit 1): uniform on [0,1] with probability
@@ -147,6 +173,7 @@ pub fn capped_inverse_square(u: f32) -> f32 {
 /// `samples` G-buffer surfaces, no occlusion.
 pub fn receiver_factor(rsm: &Rsm, gbuffer: &GBuffer, params: &VplParams, rng_seed: u64) -> Vec<f32> {
     let clamp2 = params.clamp * params.clamp;
+    let projector = Projector::new(&gbuffer.camera, gbuffer.width, gbuffer.height);
     (0..rsm.len())
         .into_par_iter()
         .map(|i| {
@@ -159,7 +186,7 @@ pub fn receiver_factor(rsm: &Rsm, gbuffer: &GBuffer, params: &VplParams, rng_see
             for _ in 0..params.pvpl_samples {
                 let dir = uniform_sphere(rng.next_2d());
                 let r = capped_inverse_square(rng.next_f32()) * params.pvpl_radius;
-                let Some(px) = project(&gbuffer.camera, gbuffer.width, gbuffer.height, y + dir * r) else {
+                let Some(px) = projector.pixel(y + dir * r) else {
                     continue;
                 };
                 if !gbuffer.is_hit(px) {

@@ -3,7 +3,7 @@
 
 use crate::{LightKind, Mesh, Scene};
 use glimpse_core::distribution::Distribution1D;
-use glimpse_core::{Aabb, Mat4, Vec2, Vec3};
+use glimpse_core::{Aabb, Mat3, Mat4, Vec2, Vec3};
 use std::borrow::Cow;
 
 /// A punctual light at the frame's time, in world space.
@@ -76,6 +76,9 @@ pub struct SceneFrame<'a> {
     pub time: f32,
     /// Object-to-world matrix per instance.
     pub transforms: Vec<Mat4>,
+    /// Per instance, the matrix that takes its object-space normals to world space (the inverse
+    /// transpose of the transform's 3×3 part), computed once here rather than at every hit.
+    pub normal_matrices: Vec<Mat3>,
     /// Object-space positions per mesh at this time (borrowed when the mesh does not deform).
     pub positions: Vec<Cow<'a, [Vec3]>>,
     /// Object-space normals per mesh (recomputed for deformed meshes; empty if the mesh has none).
@@ -91,6 +94,7 @@ impl Scene {
     /// Evaluates every animation at time `t` (seconds).
     pub fn at(&self, t: f32) -> SceneFrame<'_> {
         let transforms: Vec<Mat4> = self.instances.iter().map(|i| i.motion.at(t)).collect();
+        let normal_matrices = transforms.iter().map(|&m| Mat3::from_mat4(m).inverse().transpose()).collect();
         let (positions, normals): (Vec<_>, Vec<_>) = self
             .meshes
             .iter()
@@ -145,7 +149,18 @@ impl Scene {
         }
         let emissive_distribution = (!emissive.is_empty())
             .then(|| Distribution1D::new(&emissive.iter().map(|e| e.area * glimpse_core::luminance(e.radiance)).collect::<Vec<_>>()));
-        SceneFrame { scene: self, time: t, transforms, positions, normals, lights, emissive, emissive_distribution, bounds }
+        SceneFrame {
+            scene: self,
+            time: t,
+            transforms,
+            normal_matrices,
+            positions,
+            normals,
+            lights,
+            emissive,
+            emissive_distribution,
+            bounds,
+        }
     }
 }
 

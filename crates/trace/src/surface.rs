@@ -72,8 +72,8 @@ impl SurfacePoint {
         let authored = if normals.is_empty() {
             raw
         } else {
-            let normal_matrix = Mat3::from_mat4(m).inverse().transpose();
-            (normal_matrix * (normals[i0] * b0 + normals[i1] * hit.b1 + normals[i2] * hit.b2)).normalize_or(raw)
+            (frame.normal_matrices[hit.instance as usize] * (normals[i0] * b0 + normals[i1] * hit.b1 + normals[i2] * hit.b2))
+                .normalize_or(raw)
         };
         let facing = |n: Vec3| if n.dot(normal) < 0.0 { -n } else { n };
         let mut shading_normal = facing(authored);

@@ -542,7 +542,7 @@ pub fn world_mesh(frame: &SceneFrame, i: usize) -> WorldMesh {
     let m = frame.transforms[i];
     let pos = &frame.positions[inst.mesh as usize];
     let nor = &frame.normals[inst.mesh as usize];
-    let nm = glimpse_core::Mat3::from_mat4(m).inverse().transpose();
+    let nm = frame.normal_matrices[i];
     let mut wm = WorldMesh { triangles: Vec::with_capacity(mesh.indices.len()), normals: Vec::with_capacity(mesh.indices.len()) };
     for t in &mesh.indices {
         let idx = t.map(|k| k as usize);
