@@ -320,15 +320,16 @@ pub fn randomized_hammersley(n: u32, shift: Vec2) -> Vec<Vec2> {
 pub fn selection_pdf(rsm: &Rsm, gbuffer: &GBuffer, params: &VplParams, rng_seed: u64) -> Vec<f32> {
     let r = rsm.resolution;
     let factor = receiver_factor(rsm, gbuffer, params, rng_seed);
-    let valid: Vec<bool> = rsm.depth.iter().map(|d| d.is_finite()).collect();
+    let valid: Vec<bool> = rsm.depth.par_iter().map(|d| d.is_finite()).collect();
     let filtered =
         edge_aware_filter(&factor, &rsm.position, &rsm.normal, &valid, r, params.filter_radius, params.filter_sigma, params.similarity);
-    let contrib: Vec<f32> = filtered.iter().zip(&rsm.flux).map(|(f, phi)| f * luminance(*phi).max(0.0)).collect();
-    let flux: Vec<f32> = rsm.flux.iter().map(|phi| luminance(*phi).max(0.0)).collect();
+    let contrib: Vec<f32> = filtered.par_iter().zip(&rsm.flux).map(|(f, phi)| f * luminance(*phi).max(0.0)).collect();
+    let flux: Vec<f32> = rsm.flux.par_iter().map(|phi| luminance(*phi).max(0.0)).collect();
+    // Summed in order (a parallel sum's grouping would change the PDF's last bits).
     let (sc, sf) = (contrib.iter().map(|&v| v as f64).sum::<f64>(), flux.iter().map(|&v| v as f64).sum::<f64>());
     let eps = if sc > 0.0 { params.defensive as f64 } else { 1.0 };
     contrib
-        .iter()
+        .par_iter()
         .zip(&flux)
         .map(|(&c, &f)| {
             let a = if sc > 0.0 { (1.0 - eps) * c as f64 / sc } else { 0.0 };
