@@ -115,14 +115,10 @@ pub fn allocate(total: u32, weights: &[f32]) -> Vec<u32> {
     n
 }
 
-/// The pixel the world point `p` projects to, if on screen (inverse of [`Camera::ray`]).
-pub fn project(camera: &Camera, width: u32, height: u32, p: Vec3) -> Option<usize> {
-    Projector::new(camera, width, height).pixel(p)
-}
-
-/// [`project`] with the camera's frame and scales computed once: the pVPL estimate projects
-/// four points per RSM texel, a million per frame, and the camera's basis (two normalized
-/// cross products and a tangent) cost as much as the projection itself.
+/// World points to the pixels they project to (the inverse of [`Camera::ray`]), with the
+/// camera's frame and scales computed once: the pVPL estimate projects four points per RSM
+/// texel, a million per frame, and the camera's basis (two normalized cross products and a
+/// tangent) cost as much as the projection itself.
 pub struct Projector {
     position: Vec3,
     forward: Vec3,
@@ -146,6 +142,7 @@ impl Projector {
         Self { position: camera.position, forward, right, up, extent, width, height }
     }
 
+    /// The pixel `p` projects to, if on screen.
     pub fn pixel(&self, p: Vec3) -> Option<usize> {
         let d = p - self.position;
         let z = d.dot(self.forward);
