@@ -3,6 +3,7 @@
 //! - [`bvh`]: binned-SAH BVH2 over boxes, parallel build, refit.
 //! - [`triangle`]: the watertight ray–triangle test.
 //! - [`tracer`]: [`ExactTracer`], the two-level BVH over a [`SceneFrame`].
+//! - `packet`: one box against eight rays, for the tracer's shadow-ray packets.
 //! - [`brute`]: every ray against every triangle, the oracle for the tracer's tests.
 //! - [`surface`]: from a [`Hit`] to positions, normals, texture coordinates and albedo.
 //! - [`gbuffer`]: primary visibility per pixel.
@@ -14,6 +15,7 @@ pub mod bvh;
 #[cfg(feature = "embree")]
 pub mod embree;
 pub mod gbuffer;
+mod packet;
 pub mod rays;
 pub mod spawn;
 pub mod surface;

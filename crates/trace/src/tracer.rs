@@ -7,6 +7,7 @@
 //! for the static world, so that costs microseconds).
 
 use crate::bvh::{BuildParams, Bvh, Bvh4, Bvh4Node, WIDTH};
+use crate::packet::PacketRays;
 use crate::triangle::PreparedRay;
 use glimpse_core::glam::Affine3A;
 use glimpse_core::{Aabb, Ray, Vec3, Vec3A, Vec4};
@@ -357,8 +358,8 @@ fn occluded_packet<const N: usize>(
     let nodes = &blas.wide.nodes;
     // Lanes past the rays repeat the last one (never read: they are not in any mask).
     let prepared: [PreparedRay; N] = std::array::from_fn(|i| PreparedRay::new(&rays[i.min(n - 1)].0));
-    let ray4: [Ray4; N] = std::array::from_fn(|i| Ray4::new(&prepared[i]));
     let t_max = |r: usize| rays[r].1;
+    let packet = PacketRays::<N>::new(&prepared[..n], t_max);
     // Rays not yet found occluded.
     let mut open: u64 = if n == 64 { u64::MAX } else { (1 << n) - 1 };
     let mut blocker = None;
@@ -388,16 +389,7 @@ fn occluded_packet<const N: usize>(
         }
         if count == 0 {
             let node = &nodes[child as usize];
-            let mut entered = [0u64; WIDTH];
-            let mut bits = mask;
-            while bits != 0 {
-                let r = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let (m, _) = ray4[r].enter(node, t_max(r));
-                for (slot, e) in entered.iter_mut().enumerate() {
-                    *e |= (((m >> slot) & 1) as u64) << r;
-                }
-            }
+            let entered = packet.enter(node, mask);
             for slot in (0..WIDTH).rev() {
                 if entered[slot] != 0 {
                     stack.push((node.child[slot], node.count[slot], entered[slot]));
@@ -633,7 +625,7 @@ impl Stack {
 
 /// A ray splatted across four lanes for [`Ray4::enter`], with, per axis, whether it crosses a
 /// box's maximum plane before its minimum (a negative direction).
-struct Ray4 {
+pub(crate) struct Ray4 {
     origin: [Vec4; 3],
     inv_dir: [Vec4; 3],
     negative: [bool; 3],
@@ -641,7 +633,7 @@ struct Ray4 {
 
 impl Ray4 {
     #[inline(always)]
-    fn new(ray: &PreparedRay) -> Self {
+    pub(crate) fn new(ray: &PreparedRay) -> Self {
         let (o, i) = (ray.origin, ray.inv_dir);
         Self {
             origin: [Vec4::splat(o.x), Vec4::splat(o.y), Vec4::splat(o.z)],
@@ -655,7 +647,7 @@ impl Ray4 {
     /// culls a box the ray really touches. Empty slots (inverted boxes) are never entered: their
     /// near plane is at +∞ and their far plane at −∞ whichever way the ray goes.
     #[inline(always)]
-    fn enter(&self, n: &Bvh4Node, t_max: f32) -> (u32, Vec4) {
+    pub(crate) fn enter(&self, n: &Bvh4Node, t_max: f32) -> (u32, Vec4) {
         let mut near = Vec4::ZERO;
         let mut far = Vec4::splat(t_max);
         for axis in 0..3 {
@@ -670,4 +662,4 @@ impl Ray4 {
     }
 }
 
-const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
+pub(crate) const GAMMA3: f32 = 3.0 * f32::EPSILON * 0.5 / (1.0 - 3.0 * f32::EPSILON * 0.5);
