@@ -31,7 +31,7 @@ pub(crate) struct PacketRays<const N: usize> {
 impl<const N: usize> PacketRays<N> {
     /// `rays` (at least one): lanes past them repeat the last ray, never asked about.
     pub(crate) fn new(rays: &[PreparedRay], t_max: impl Fn(usize) -> f32) -> Self {
-        const { assert!(N % 8 == 0 && N <= 64) };
+        const { assert!(N.is_multiple_of(8) && N <= 64) };
         let n = rays.len();
         let ray = |i: usize| &rays[i.min(n - 1)];
         let axis = |f: &dyn Fn(&PreparedRay) -> [f32; 3], a: usize| std::array::from_fn(|i| f(ray(i))[a]);
@@ -163,7 +163,7 @@ mod tests {
                     PreparedRay::new(&Ray::new(origin, d))
                 })
                 .collect();
-            let t_max = |i: usize| if i % 3 == 0 { f32::INFINITY } else { 2.0 + i as f32 * 0.2 };
+            let t_max = |i: usize| if i.is_multiple_of(3) { f32::INFINITY } else { 2.0 + i as f32 * 0.2 };
             let packet_rays = PacketRays::<64>::new(&rays, t_max);
             if !packet_rays.avx2 {
                 println!("no AVX2 on this CPU: only the one-ray path runs");
