@@ -6,7 +6,7 @@
 //! rays that scatter and the per-ray loop cost more than the slab tests (62 % of a `vpl-exact`
 //! frame on sponza-interior was that loop). With AVX2, eight rays are tested against one box at
 //! a time instead, the rays kept as structure-of-arrays, and the compare's sign bits are the ray
-//! mask directly.
+//! mask directly, wherever enough of the packet's rays are still together ([`DENSE`]).
 //!
 //! Both paths make the same decision for every ray and box, bit for bit: the slab test takes
 //! each axis's near plane as `min(t₀, t₁)` of the two planes' distances instead of choosing by
@@ -17,6 +17,13 @@
 use crate::bvh::{Bvh4Node, EMPTY_SLOT, WIDTH};
 use crate::tracer::Ray4;
 use crate::triangle::PreparedRay;
+
+/// Rays per occupied group of eight from which the eight-wide test is the faster: a group costs
+/// the same however few of its rays are asked, and deep nodes are entered by a few rays spread
+/// over the groups. `vpl-exact`'s render gi at 96 × 64, interleaved runs: always eight-wide
+/// (0) / 2 / 3 / 4 / never: `million-triangles` 1.86–1.89 / 1.74–1.76 / 1.66–1.72 / 1.69–1.75 /
+/// 1.83 s, `sponza-interior` 1.47–1.48 / 1.41–1.44 / 1.40 / 1.40–1.43 / 1.89–1.95 s.
+const DENSE: u32 = 3;
 
 /// Up to `N` rays (a multiple of 8, at most 64) as structure-of-arrays, plus each one's
 /// one-ray form for the fallback.
@@ -46,11 +53,12 @@ impl<const N: usize> PacketRays<N> {
         }
     }
 
-    /// Per child slot of `node`, the rays of `mask` that enter its box before their `t_max`.
+    /// Per child slot of `node`, the rays of `mask` that enter its box before their `t_max`:
+    /// eight at a time where the groups of eight that hold a ray hold [`DENSE`] on average.
     #[inline]
     pub(crate) fn enter(&self, node: &Bvh4Node, mask: u64) -> [u64; WIDTH] {
         #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
+        if self.avx2 && mask.count_ones() >= DENSE * groups(mask) {
             // SAFETY: `avx2` is set only where the CPU has AVX2.
             return unsafe { self.enter_avx2(node, mask) };
         }
@@ -115,6 +123,16 @@ impl<const N: usize> PacketRays<N> {
     }
 }
 
+/// How many of `mask`'s bytes (groups of eight rays) have a ray.
+#[inline(always)]
+fn groups(mask: u64) -> u32 {
+    let mut x = mask;
+    x |= x >> 4;
+    x |= x >> 2;
+    x |= x >> 1;
+    (x & 0x0101_0101_0101_0101).count_ones()
+}
+
 /// Whether this CPU runs the AVX2 box test (`GLIMPSE_NO_AVX2` set in the environment turns it
 /// off, to compare both paths).
 fn avx2_available() -> bool {
@@ -132,6 +150,14 @@ mod tests {
     use super::*;
     use crate::bvh::{BuildParams, Bvh, Bvh4};
     use glimpse_core::{Aabb, Ray, Rng, Vec3};
+
+    #[test]
+    fn groups_count_the_occupied_bytes() {
+        assert_eq!(groups(0), 0);
+        assert_eq!(groups(1), 1);
+        assert_eq!(groups(0x8000_0000_0000_0100), 2);
+        assert_eq!(groups(u64::MAX), 8);
+    }
 
     /// Every node of a random tree against packets of coherent and incoherent rays, with random
     /// masks and finite and infinite `t_max`: both paths give the same ray masks.
