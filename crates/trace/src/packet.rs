@@ -53,6 +53,15 @@ impl<const N: usize> PacketRays<N> {
         }
     }
 
+    pub(crate) fn t_max(&self, r: usize) -> f32 {
+        self.t_max[r]
+    }
+
+    /// Ray `r` now ends at `t` (a closest-hit query found a hit there).
+    pub(crate) fn set_t_max(&mut self, r: usize, t: f32) {
+        self.t_max[r] = t;
+    }
+
     /// Per child slot of `node`, the rays of `mask` that enter its box before their `t_max`:
     /// eight at a time where the groups of eight that hold a ray hold [`DENSE`] on average.
     #[inline]

@@ -254,6 +254,33 @@ impl ExactTracer {
         }
     }
 
+    /// [`closest_hit`](Self::closest_hit) for a batch of rays, `out[i]` for `rays[i]`: in a
+    /// static scene, [`PACKET`] at a time down the tree together, as [`Self::occluded_many`]
+    /// traces shadow rays. Meant for coherent rays (a light's shadow-map texels, a tile of
+    /// pixels). Each ray finds the hit `closest_hit` finds, at the same `t` with the same
+    /// barycentrics, except where two triangles are hit at exactly the same `t` (a shared edge):
+    /// the first visited wins in both, and the packet visits the tree in another order.
+    pub fn closest_hits(&self, rays: &[(Ray, f32)], out: &mut [Option<Hit>]) {
+        assert_eq!(rays.len(), out.len(), "one answer per ray");
+        let single = match &self.entries[..] {
+            [e] if e.identity => Some((&self.blases[e.blas as usize], e.instance)),
+            _ => None,
+        };
+        let Some((blas, instance)) = single else {
+            for ((ray, t_max), o) in rays.iter().zip(out) {
+                *o = self.closest_hit(ray, *t_max);
+            }
+            return;
+        };
+        for (rays, out) in rays.chunks(PACKET).zip(out.chunks_mut(PACKET)) {
+            match rays.len() {
+                1 => out[0] = self.closest_hit(&rays[0].0, rays[0].1),
+                2..=8 => closest_packet::<8>(blas, instance, self.cutouts.as_deref(), rays, out),
+                _ => closest_packet::<PACKET>(blas, instance, self.cutouts.as_deref(), rays, out),
+            }
+        }
+    }
+
     /// The closest hit at `0 < t < t_max`.
     pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         self.trace::<false>(ray, t_max).map(|f| f.hit)
@@ -416,6 +443,60 @@ fn occluded_packet<const N: usize>(
         *o = open & (1 << r) == 0;
     }
     blocker
+}
+
+/// Closest hits for up to `N` ≤ 64 rays through one world-space BLAS (the static world, whose
+/// ids marked [`FROM_ENTRY`] belong to `instance`): a stack of (node or leaf, the rays that
+/// entered it), children pushed far to near along the first ray's direction; each ray's `t_max`
+/// shrinks at its hits, so its later box tests cull as its own traversal's would.
+fn closest_packet<const N: usize>(blas: &Blas, instance: u32, cut: Option<&Cutouts>, rays: &[(Ray, f32)], out: &mut [Option<Hit>]) {
+    let n = rays.len();
+    debug_assert!(n <= N && N <= 64);
+    let nodes = &blas.wide.nodes;
+    let prepared: [PreparedRay; N] = std::array::from_fn(|i| PreparedRay::new(&rays[i.min(n - 1)].0));
+    let mut packet = PacketRays::<N>::new(&prepared[..n], |r| rays[r].1);
+    out.fill(None);
+    let all: u64 = if n == 64 { u64::MAX } else { (1 << n) - 1 };
+    let mut stack: Vec<(u32, u32, u64)> = Vec::with_capacity(64);
+    if !nodes.is_empty() {
+        stack.push((0, 0, all));
+    }
+    let toward = prepared[0].dir;
+    while let Some((child, count, mask)) = stack.pop() {
+        if count == 0 {
+            let node = &nodes[child as usize];
+            let entered = packet.enter(node, mask);
+            // Far to near along the first ray: the nearest child comes off the stack first.
+            let depth = |slot: usize| {
+                let p = &node.planes;
+                let centre = Vec3A::new(p[0][0][slot] + p[0][1][slot], p[1][0][slot] + p[1][1][slot], p[2][0][slot] + p[2][1][slot]);
+                centre.dot(toward)
+            };
+            let mut order: [usize; WIDTH] = std::array::from_fn(|slot| slot);
+            order.sort_unstable_by(|&a, &b| depth(b).total_cmp(&depth(a)));
+            for slot in order {
+                if entered[slot] != 0 {
+                    stack.push((node.child[slot], node.count[slot], entered[slot]));
+                }
+            }
+            continue;
+        }
+        for i in child as usize..(child + count) as usize {
+            let mut bits = mask;
+            while bits != 0 {
+                let r = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let Some((t, b1, b2)) = prepared[r].intersect_triangle(&blas.triangles[i], packet.t_max(r)) else { continue };
+                let id = blas.ids[i];
+                let instance = if id.instance == FROM_ENTRY { instance } else { id.instance };
+                if cut.is_some_and(|c| c.hole(instance, id.triangle, b1, b2)) {
+                    continue;
+                }
+                packet.set_t_max(r, t);
+                out[r] = Some(Hit { t, b1, b2, instance, triangle: id.triangle });
+            }
+        }
+    }
 }
 
 /// A triangle of the tracer: its TLAS entry and its slot in that entry's BLAS.

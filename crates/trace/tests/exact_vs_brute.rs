@@ -46,6 +46,8 @@ fn compare(scene: &Scene, time: f32, rays: usize) -> (f64, f64) {
     let packet_wrong = rays.iter().zip(&packed).filter(|((ray, t_max), p)| brute.occluded(ray, *t_max) != **p).count();
     assert_eq!(packet_wrong, 0, "occluded_many differs from the oracle on incoherent rays");
     assert_eq!(shadow_cache_disagreements(&bvh, &brute, &frame), 0, "the shadow cache changed an answer");
+    assert_eq!(closest_packet_disagreements(&bvh, &rays), 0, "closest_hits differs from closest_hit on incoherent rays");
+    assert_eq!(closest_packet_disagreements(&bvh, &coherent_rays(&frame)), 0, "closest_hits differs from closest_hit on coherent rays");
     (any_ok as f64 / n, closest_ok as f64 / n)
 }
 
@@ -80,6 +82,48 @@ fn shadow_cache_disagreements(bvh: &ExactTracer, brute: &BruteForce, frame: &gli
     }
     println!("shadow cache and packets: {blocked} of {rays} coherent shadow rays blocked, {wrong} answers differ from the oracle");
     wrong
+}
+
+/// Rays through the same points together (`closest_hits`: packets in a static scene) against
+/// each one alone: how many differ in `t` or barycentrics (bit for bit), or in the triangle
+/// other than by a tie in `t` (two triangles hit at the same distance: the first visited wins).
+fn closest_packet_disagreements(bvh: &ExactTracer, rays: &[(Ray, f32)]) -> usize {
+    let mut packed = vec![None; rays.len()];
+    bvh.closest_hits(rays, &mut packed);
+    let (mut wrong, mut hits, mut ties) = (0, 0, 0);
+    for ((ray, t_max), p) in rays.iter().zip(packed) {
+        let alone = bvh.closest_hit(ray, *t_max);
+        let bits = |h: Option<glimpse_trace::Hit>| h.map(|h| h.t.to_bits());
+        if bits(p) != bits(alone) {
+            wrong += 1;
+        } else if let (Some(a), Some(b)) = (p, alone) {
+            hits += 1;
+            if (a.instance, a.triangle) != (b.instance, b.triangle) {
+                ties += 1;
+            } else if (a.b1.to_bits(), a.b2.to_bits()) != (b.b1.to_bits(), b.b2.to_bits()) {
+                wrong += 1;
+            }
+        }
+    }
+    println!("closest_hits: {hits} of {} rays hit, {ties} ties in t won by another triangle, {wrong} differ", rays.len());
+    wrong
+}
+
+/// Bundles of 64 rays from one point through a small patch (a light's shadow-map tile), with
+/// some sizes that split packets.
+fn coherent_rays(frame: &glimpse_scene::SceneFrame) -> Vec<(Ray, f32)> {
+    let b = frame.bounds;
+    let mut rng = Rng::new(23, 4);
+    let mut point = || b.min + (b.max - b.min) * Vec3::new(rng.next_f32(), rng.next_f32(), rng.next_f32());
+    let mut rays = Vec::new();
+    for bundle in 0..100 {
+        let (origin, target) = (point() * 1.2, point());
+        for k in 0..[64, 40, 64][bundle % 3] {
+            let jitter = Vec3::new((k % 8) as f32, (k / 8) as f32, 0.0) * 0.02 * b.extent().length();
+            rays.push((Ray::new(origin, target + jitter - origin), if k % 5 == 0 { 2.0 } else { f32::INFINITY }));
+        }
+    }
+    rays
 }
 
 fn soup(n: usize, seed: u64) -> Scene {
