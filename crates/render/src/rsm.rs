@@ -28,7 +28,7 @@
 use glimpse_core::sampling::{octahedral_decode, octahedral_encode};
 use glimpse_core::{Frame, Ray, Rng, Vec2, Vec3};
 use glimpse_scene::{LightKind, SceneFrame, frame::spot_falloff};
-use glimpse_trace::{ExactTracer, Hit, SurfacePoint};
+use glimpse_trace::{ExactTracer, SurfacePoint};
 use rayon::prelude::*;
 use std::f32::consts::PI;
 
@@ -203,14 +203,15 @@ impl Rsm {
             let (x, y) = ((i as u32 % r) as f32, (i as u32 / r) as f32);
             Vec2::new((x + 0.5 + jitter.x) / r as f32, (y + 0.5 + jitter.y) / r as f32)
         };
-        let hits = texel_hits(tracer, r, |i| texel_ray(light, texel_u(i)));
+        // A tile's rays leave one point (or go one way) nearly together: traced as packets.
+        let hits = tracer.closest_hits_tiled(r, r, |i| texel_ray(light, texel_u(i)));
         // Each texel written in place by its thread (a map of up to 512² surface points, collected
         // and then copied out one by one, was a fifth of the build).
         let columns =
             (&mut rsm.position, &mut rsm.error_scale, &mut rsm.normal, &mut rsm.albedo, &mut rsm.flux, &mut rsm.area, &mut rsm.depth);
         columns.into_par_iter().enumerate().for_each(|(i, (position, error_scale, normal, albedo, texel_flux, texel_area, depth))| {
             let (x, y) = ((i as u32 % r) as f32, (i as u32 / r) as f32);
-            let Some((ray, hit)) = hits[i] else { return };
+            let Some((ray, Some(hit))) = hits[i] else { return };
             let sp = SurfacePoint::from_hit(frame, &ray, &hit);
             let cos = sp.normal.dot(-ray.dir).max(0.0);
             let rho = sp.base_color(frame);
@@ -312,30 +313,6 @@ fn local_direction(projection: Projection, u: Vec2) -> Option<Vec3> {
 }
 
 /// The ray of map coordinates `u` (world space).
-/// Per texel of an `r` × `r` map, its ray (`ray(i)`, if it has one) and the ray's closest hit,
-/// traced 8 × 8 texels at a time ([`ExactTracer::closest_hits`]: a tile's rays leave one point,
-/// or one direction, nearly together). The hits are `closest_hit`'s.
-fn texel_hits(tracer: &ExactTracer, r: u32, ray: impl Fn(usize) -> Option<Ray> + Sync) -> Vec<Option<(Ray, Hit)>> {
-    const TILE: u32 = 8;
-    let tiles = r.div_ceil(TILE);
-    let per_tile: Vec<Vec<(usize, Ray, Hit)>> = (0..tiles * tiles)
-        .into_par_iter()
-        .map(|t| {
-            let (x0, y0) = (t % tiles * TILE, t / tiles * TILE);
-            let texels = (y0..(y0 + TILE).min(r)).flat_map(|y| (x0..(x0 + TILE).min(r)).map(move |x| (y * r + x) as usize));
-            let (index, rays): (Vec<usize>, Vec<(Ray, f32)>) = texels.filter_map(|i| ray(i).map(|ray| (i, (ray, f32::INFINITY)))).unzip();
-            let mut hits = vec![None; rays.len()];
-            tracer.closest_hits(&rays, &mut hits);
-            index.into_iter().zip(rays).zip(hits).filter_map(|((i, (ray, _)), h)| h.map(|h| (i, ray, h))).collect()
-        })
-        .collect();
-    let mut out = vec![None; (r * r) as usize];
-    for (i, ray, hit) in per_tile.into_iter().flatten() {
-        out[i] = Some((ray, hit));
-    }
-    out
-}
-
 fn texel_ray(light: &RsmLight, u: Vec2) -> Option<Ray> {
     match light.projection {
         Projection::Orthographic { half_extent } => {

@@ -58,14 +58,17 @@ impl GBuffer {
         filter: Filter,
         pass: u32,
     ) -> GBuffer {
-        let texels: Vec<(Ray, Option<SurfacePoint>)> = (0..width * height)
+        let camera_ray = |i: usize| {
+            let (x, y) = (i as u32 % width, i as u32 / width);
+            let offset = filter.sample(Rng::for_pixel(FILM_SEED, i as u64, pass as u64).next_2d());
+            Some(camera.ray(x as f32 + 0.5 + offset.x, y as f32 + 0.5 + offset.y, width, height))
+        };
+        let texels: Vec<(Ray, Option<SurfacePoint>)> = tracer
+            .closest_hits_tiled(width, height, camera_ray)
             .into_par_iter()
-            .map(|i| {
-                let (x, y) = (i % width, i / width);
-                let offset = filter.sample(Rng::for_pixel(FILM_SEED, i as u64, pass as u64).next_2d());
-                let ray = camera.ray(x as f32 + 0.5 + offset.x, y as f32 + 0.5 + offset.y, width, height);
-                let sp = tracer.closest_hit(&ray, f32::INFINITY).map(|h| SurfacePoint::from_hit(frame, &ray, &h));
-                (ray, sp)
+            .map(|texel| {
+                let (ray, hit) = texel.expect("every pixel has a camera ray");
+                (ray, hit.map(|h| SurfacePoint::from_hit(frame, &ray, &h)))
             })
             .collect();
         let n = texels.len();

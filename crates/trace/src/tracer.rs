@@ -12,6 +12,7 @@ use crate::triangle::PreparedRay;
 use glimpse_core::glam::Affine3A;
 use glimpse_core::{Aabb, Ray, Vec3, Vec3A, Vec4};
 use glimpse_scene::{Cutouts, SceneFrame};
+use rayon::prelude::*;
 use std::mem::MaybeUninit;
 use std::sync::Arc;
 
@@ -281,6 +282,36 @@ impl ExactTracer {
         }
     }
 
+    /// Per pixel of a `width` × `height` image, its ray (`ray(i)` for pixel `i` in row-major
+    /// order, if it has one) and the ray's closest hit, traced [`TILE`] × [`TILE`] pixels at a
+    /// time with [`Self::closest_hits`] (a tile's camera or shadow-map rays leave one point
+    /// nearly together), the tiles in parallel.
+    pub fn closest_hits_tiled(
+        &self,
+        width: u32,
+        height: u32,
+        ray: impl Fn(usize) -> Option<Ray> + Sync,
+    ) -> Vec<Option<(Ray, Option<Hit>)>> {
+        let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
+        let per_tile: Vec<Vec<(usize, Ray, Option<Hit>)>> = (0..tiles_x * tiles_y)
+            .into_par_iter()
+            .map(|t| {
+                let (x0, y0) = (t % tiles_x * TILE, t / tiles_x * TILE);
+                let pixels =
+                    (y0..(y0 + TILE).min(height)).flat_map(|y| (x0..(x0 + TILE).min(width)).map(move |x| (y * width + x) as usize));
+                let (index, rays): (Vec<usize>, Vec<(Ray, f32)>) = pixels.filter_map(|i| ray(i).map(|r| (i, (r, f32::INFINITY)))).unzip();
+                let mut hits = vec![None; rays.len()];
+                self.closest_hits(&rays, &mut hits);
+                index.into_iter().zip(rays).zip(hits).map(|((i, (ray, _)), h)| (i, ray, h)).collect()
+            })
+            .collect();
+        let mut out = vec![None; (width * height) as usize];
+        for (i, ray, hit) in per_tile.into_iter().flatten() {
+            out[i] = Some((ray, hit));
+        }
+        out
+    }
+
     /// The closest hit at `0 < t < t_max`.
     pub fn closest_hit(&self, ray: &Ray, t_max: f32) -> Option<Hit> {
         self.trace::<false>(ray, t_max).map(|f| f.hit)
@@ -369,6 +400,9 @@ impl ExactTracer {
 
 /// Rays traced together by [`ExactTracer::occluded_many`].
 pub const PACKET: usize = 64;
+
+/// Side of the pixel tiles of [`ExactTracer::closest_hits_tiled`]: one packet.
+pub const TILE: u32 = 8;
 
 /// Any-hit for up to `N` ≤ 64 rays through one world-space BLAS: a stack of (node or leaf,
 /// the rays that entered it); a ray leaves every entry once it is found occluded. Triangle slot
