@@ -259,8 +259,11 @@ impl ExactTracer {
     /// static scene, [`PACKET`] at a time down the tree together, as [`Self::occluded_many`]
     /// traces shadow rays. Meant for coherent rays (a light's shadow-map texels, a tile of
     /// pixels). Each ray finds the hit `closest_hit` finds, at the same `t` with the same
-    /// barycentrics, except where two triangles are hit at exactly the same `t` (a shared edge):
-    /// the first visited wins in both, and the packet visits the tree in another order.
+    /// barycentrics, except at ties: two triangles hit at the same `t`, or within one rounding
+    /// of it (at a shared vertex: the triangle test compares t·det with t_max·det, so the first
+    /// hit found can hide the other), where the first visited wins in both and the packet
+    /// visits the tree in another order (on `scenes/extra/sponza-night`, 1 of 786,432 RSM-like
+    /// rays: t 6.9 against 6.8999996, a ray straight down through a vertex).
     pub fn closest_hits(&self, rays: &[(Ray, f32)], out: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), out.len(), "one answer per ray");
         let single = match &self.entries[..] {
