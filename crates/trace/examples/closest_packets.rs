@@ -1,5 +1,5 @@
 //! Closest hits of a shadow map's rays, one by one (`closest_hit`) against 8 × 8 packets
-//! (`closest_hits`): 512² rays from one point downward through a square, in the order an RSM
+//! (`closest_hits_tiled`): 512² rays from one point downward through a square, in the order an RSM
 //! traces them. `cargo run --release -p glimpse-trace --example closest_packets -- SCENE [x y z]`
 //! (the point defaults to one of sponza-interior's lights).
 
@@ -34,17 +34,8 @@ fn main() {
         let a: usize = (0..r * r).into_par_iter().filter(|&i| tracer.closest_hit(&ray(i), f32::INFINITY).is_some()).count();
         let one = t.elapsed().as_secs_f64() * 1e3;
         let t = std::time::Instant::now();
-        let tiles = r / 8;
-        let b: usize = (0..tiles * tiles)
-            .into_par_iter()
-            .map(|t| {
-                let (x0, y0) = (t % tiles * 8, t / tiles * 8);
-                let rays: Vec<(Ray, f32)> = (0..64).map(|k| (ray((y0 + k / 8) * r + x0 + k % 8), f32::INFINITY)).collect();
-                let mut hits = vec![None; 64];
-                tracer.closest_hits(&rays, &mut hits);
-                hits.iter().filter(|h| h.is_some()).count()
-            })
-            .sum();
+        let hits = tracer.closest_hits_tiled(r, r, |i| Some(ray(i as u32)));
+        let b = hits.iter().filter(|h| matches!(h, Some((_, Some(_))))).count();
         let packets = t.elapsed().as_secs_f64() * 1e3;
         println!("one by one {one:.1} ms ({a} hits), 8 × 8 packets {packets:.1} ms ({b} hits)");
     }

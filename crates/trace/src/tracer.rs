@@ -229,11 +229,7 @@ impl ExactTracer {
     /// `occluded`'s.
     pub fn occluded_many(&self, rays: &[(Ray, f32)], out: &mut [bool]) {
         assert_eq!(rays.len(), out.len(), "one answer per ray");
-        let single = match &self.entries[..] {
-            [e] if e.identity => Some(&self.blases[e.blas as usize]),
-            _ => None,
-        };
-        let Some(blas) = single else {
+        let Some((blas, _)) = self.static_world() else {
             for ((ray, t_max), o) in rays.iter().zip(out) {
                 *o = self.occluded(ray, *t_max);
             }
@@ -255,6 +251,15 @@ impl ExactTracer {
         }
     }
 
+    /// A static scene's one world-space BLAS and the instance its [`FROM_ENTRY`] ids belong to:
+    /// what the packets traverse (rays through a TLAS of moving instances go one by one).
+    fn static_world(&self) -> Option<(&Blas, u32)> {
+        match &self.entries[..] {
+            [e] if e.identity => Some((&self.blases[e.blas as usize], e.instance)),
+            _ => None,
+        }
+    }
+
     /// [`closest_hit`](Self::closest_hit) for a batch of rays, `out[i]` for `rays[i]`: in a
     /// static scene, [`PACKET`] at a time down the tree together, as [`Self::occluded_many`]
     /// traces shadow rays. Meant for coherent rays (a light's shadow-map texels, a tile of
@@ -266,11 +271,7 @@ impl ExactTracer {
     /// rays: t 6.9 against 6.8999996, a ray straight down through a vertex).
     pub fn closest_hits(&self, rays: &[(Ray, f32)], out: &mut [Option<Hit>]) {
         assert_eq!(rays.len(), out.len(), "one answer per ray");
-        let single = match &self.entries[..] {
-            [e] if e.identity => Some((&self.blases[e.blas as usize], e.instance)),
-            _ => None,
-        };
-        let Some((blas, instance)) = single else {
+        let Some((blas, instance)) = self.static_world() else {
             for ((ray, t_max), o) in rays.iter().zip(out) {
                 *o = self.closest_hit(ray, *t_max);
             }
@@ -295,23 +296,31 @@ impl ExactTracer {
         height: u32,
         ray: impl Fn(usize) -> Option<Ray> + Sync,
     ) -> Vec<Option<(Ray, Option<Hit>)>> {
-        let (tiles_x, tiles_y) = (width.div_ceil(TILE), height.div_ceil(TILE));
-        let per_tile: Vec<Vec<(usize, Ray, Option<Hit>)>> = (0..tiles_x * tiles_y)
-            .into_par_iter()
-            .map(|t| {
-                let (x0, y0) = (t % tiles_x * TILE, t / tiles_x * TILE);
-                let pixels =
-                    (y0..(y0 + TILE).min(height)).flat_map(|y| (x0..(x0 + TILE).min(width)).map(move |x| (y * width + x) as usize));
-                let (index, rays): (Vec<usize>, Vec<(Ray, f32)>) = pixels.filter_map(|i| ray(i).map(|r| (i, (r, f32::INFINITY)))).unzip();
-                let mut hits = vec![None; rays.len()];
-                self.closest_hits(&rays, &mut hits);
-                index.into_iter().zip(rays).zip(hits).map(|((i, (ray, _)), h)| (i, ray, h)).collect()
-            })
-            .collect();
         let mut out = vec![None; (width * height) as usize];
-        for (i, ray, hit) in per_tile.into_iter().flatten() {
-            out[i] = Some((ray, hit));
-        }
+        // Bands of TILE rows are contiguous in `out`: each is written in place by its thread.
+        out.par_chunks_mut((width * TILE) as usize).enumerate().for_each(|(band, rows)| {
+            let y0 = band as u32 * TILE;
+            let (mut index, mut rays, mut hits) = (Vec::new(), Vec::new(), Vec::new());
+            for x0 in (0..width).step_by(TILE as usize) {
+                index.clear();
+                rays.clear();
+                for y in y0..(y0 + TILE).min(height) {
+                    for x in x0..(x0 + TILE).min(width) {
+                        let i = (y * width + x) as usize;
+                        if let Some(r) = ray(i) {
+                            index.push(i - (y0 * width) as usize);
+                            rays.push((r, f32::INFINITY));
+                        }
+                    }
+                }
+                hits.clear();
+                hits.resize(rays.len(), None);
+                self.closest_hits(&rays, &mut hits);
+                for ((&k, &(r, _)), &h) in index.iter().zip(&rays).zip(&hits) {
+                    rows[k] = Some((r, h));
+                }
+            }
+        });
         out
     }
 
