@@ -73,6 +73,26 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             rt.glossy(s.material, s.base, wo_local, p.payload)
         );
     }
+    // Diffuse: each blended point's cached irradiance beside the irradiance computed afresh at
+    // the point and at the pixel (many paths): whether a wrong pixel comes from its points'
+    // estimates or from their place.
+    if mc.class == 0 {
+        let fresh = |position: Vec3, normal: Vec3, shading_normal: Vec3, n: u32| {
+            let at = SurfaceSample { position, error_scale: s.error_scale, normal, shading_normal };
+            let mut rng = Rng::new(7, 1);
+            (0..n).map(|_| integ.irradiance(&at, &mut rng).0).sum::<Vec3>() / n as f32
+        };
+        for (p, weight) in reading.blended() {
+            let (pos, n, sn) = (Vec3::from(p.position), Vec3::from(p.normal), Vec3::from(p.shading_normal));
+            println!(
+                "point weight {weight:.3}, reach {:.3e}: cached E {:?}, afresh (8,192 paths) {:?}",
+                p.reach,
+                cache.irradiance_at(p.payload).unwrap_or(Vec3::ZERO),
+                fresh(pos, n, sn, 8192)
+            );
+        }
+        println!("E at the pixel afresh (8,192 paths): {:?}", fresh(s.position, s.normal, ns, 8192));
+    }
     println!("far {}; cached (after the texel) {:?}; punctual {:?}", reading.far, rt.cached(&s, wo), rt.punctual(&s, wo).0);
     println!("shaded as the render shades it (one sample): {:?}", rt.shade(&s, wo, 0, &mut Rng::new(0, i as u64)).0);
     // The nearest points of the mesh by brute force, against what the query chose.

@@ -39,7 +39,8 @@ use rayon::prelude::*;
 use std::f32::consts::PI;
 
 /// A cache point: where it is, its normals, its energy (luminance of the irradiance or of the
-/// map's mean radiance) and its payload (index into the irradiance or radiance-tree array).
+/// map's mean radiance), its reach and its payload (index into the irradiance or radiance-tree
+/// array).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, Pod, Zeroable)]
 pub struct CachePoint {
@@ -47,8 +48,15 @@ pub struct CachePoint {
     pub normal: [f32; 3],
     pub shading_normal: [f32; 3],
     pub energy: f32,
+    /// The harmonic mean of its probe rays' hit distances ([`Integrator::enclosed_share`];
+    /// [`NO_REACH`] where none hit or no probe ran): how far its light stays valid (Ward's
+    /// irradiance caching, R_i), read by `validity`.
+    pub reach: f32,
     pub payload: u32,
 }
+
+/// [`CachePoint::reach`] where no probe ray hit anything (or none was cast).
+pub const NO_REACH: f32 = f32::MAX;
 
 /// Per instance: its class and where its octree and points are.
 #[repr(C)]
@@ -333,23 +341,39 @@ pub struct Arrival {
 /// Probe rays of [`Integrator::enclosed_share`].
 pub const ENCLOSURE_RAYS: u32 = 16;
 
+/// What a point's probe rays found ([`Integrator::enclosed_share`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Probe {
+    /// The share that hit the back of a one-sided surface.
+    pub enclosed: f32,
+    /// The harmonic mean of their hit distances ([`CachePoint::reach`]).
+    pub reach: f32,
+    pub rays: u64,
+}
+
 impl Integrator<'_> {
     /// The share of `ENCLOSURE_RAYS` cosine-distributed rays from `s` whose first hit is the back
     /// of a one-sided surface (`two_sided(instance)` false): near 1 for a point buried inside a
     /// closed mesh (an eyeball's hidden half, an interpenetrating prop), whose cached light is
-    /// the dark inside. Back faces of two-sided instances (leaves, cloth) count as front.
-    pub fn enclosed_share(&self, s: &SurfaceSample, two_sided: &dyn Fn(u32) -> bool, rng: &mut Rng) -> (f32, u64) {
+    /// the dark inside. Back faces of two-sided instances (leaves, cloth) count as front. And,
+    /// from the same rays, the harmonic mean of their hit distances (misses count as infinitely
+    /// far; [`NO_REACH`] where all miss): the point's reach, [`CachePoint::reach`].
+    pub fn enclosed_share(&self, s: &SurfaceSample, two_sided: &dyn Fn(u32) -> bool, rng: &mut Rng) -> Probe {
         let frame = Frame::from_z(s.normal);
         let k = (ENCLOSURE_RAYS as f32).sqrt() as u32;
-        let mut back = 0;
+        let (mut back, mut inverse_sum) = (0, 0.0f64);
         for j in 0..ENCLOSURE_RAYS {
             let cell = Vec2::new((j % k) as f32, (j / k) as f32);
             let dir = frame.to_world(glimpse_core::sampling::cosine_hemisphere((cell + rng.next_2d()) / k as f32));
             let ray = Ray::spawn(s.position, s.normal, s.error_scale, dir);
             let hit = self.tracer.closest_hit(&ray, f32::INFINITY);
+            if let Some(h) = &hit {
+                inverse_sum += 1.0 / (h.t as f64).max(1e-12);
+            }
             back += hit.is_some_and(|h| !two_sided(h.instance) && !SurfacePoint::from_hit(self.frame, &ray, &h).front_face) as u32;
         }
-        (back as f32 / ENCLOSURE_RAYS as f32, ENCLOSURE_RAYS as u64)
+        let reach = if inverse_sum > 0.0 { ((ENCLOSURE_RAYS as f64 / inverse_sum) as f32).min(NO_REACH) } else { NO_REACH };
+        Probe { enclosed: back as f32 / ENCLOSURE_RAYS as f32, reach, rays: ENCLOSURE_RAYS as u64 }
     }
 }
 
@@ -378,12 +402,14 @@ pub struct BakedMesh {
     pub visibility: Vec<Vec<u8>>,
     /// Points buried inside a closed mesh (`enclosed_share`), not baked: dropped by the caller.
     pub enclosed: Vec<bool>,
+    /// Per point: its reach ([`CachePoint::reach`]).
+    pub reach: Vec<f32>,
     pub rays: u64,
 }
 
 /// One baked point: energy, irradiance, radiance tree (glossy) and its environment visibility
-/// (`split_env`), rays traced, enclosed.
-type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, Option<Vec<u8>>, u64, bool);
+/// (`split_env`), rays traced, enclosed, reach.
+type PointResult = (f32, Vec3, Option<(Vec<HaarNode>, TreeRef)>, Option<Vec<u8>>, u64, bool, f32);
 
 /// Bakes the points of one instance (`class` Diffuse or Glossy).
 pub fn bake_points(
@@ -402,9 +428,13 @@ pub fn bake_points(
             let mut rng = Rng::new(seed, i as u64 ^ 0x9e37_79b9_7f4a_7c15u64.wrapping_mul(seed + 1));
             // Its own stream: the probe leaves the lighting's random numbers as they were.
             let mut probe_rng = Rng::new(seed ^ 0x5eed_e4c1_05ed, i as u64);
-            let (share, probe_rays) =
-                if p.enclosed_share < 1.0 { integ.enclosed_share(s, &|inst| p.two_sided(inst as usize), &mut probe_rng) } else { (0.0, 0) };
-            if share > p.enclosed_share {
+            let probe = if p.enclosed_share < 1.0 {
+                integ.enclosed_share(s, &|inst| p.two_sided(inst as usize), &mut probe_rng)
+            } else {
+                Probe { enclosed: 0.0, reach: NO_REACH, rays: 0 }
+            };
+            let (probe_rays, reach) = (probe.rays, probe.reach);
+            if probe.enclosed > p.enclosed_share {
                 tick(1);
                 let texels = (map.res * map.res) as usize;
                 let tree = (class == Class::Glossy).then(|| {
@@ -413,7 +443,7 @@ pub fn bake_points(
                     (nodes, t)
                 });
                 let vis = (class == Class::Glossy && map.split_env).then(|| vec![0; texels]);
-                return (0.0, Vec3::ZERO, tree, vis, probe_rays, true);
+                return (0.0, Vec3::ZERO, tree, vis, probe_rays, true, reach);
             }
             let out = match class {
                 Class::Glossy => {
@@ -422,7 +452,7 @@ pub fn bake_points(
                     let mut nodes = Vec::new();
                     let t = haar::build(&baked.image, map.res, p.radiance_beta as f64, &mut nodes);
                     let e = luminance(nodes[0].c());
-                    (e, Vec3::ZERO, Some((nodes, t)), baked.visibility, baked.rays + probe_rays, false)
+                    (e, Vec3::ZERO, Some((nodes, t)), baked.visibility, baked.rays + probe_rays, false, reach)
                 }
                 _ => {
                     let (mut sum, mut rays) = (Vec3::ZERO, 0);
@@ -434,7 +464,7 @@ pub fn bake_points(
                         }
                     }
                     let e = sum / p.irradiance_samples.max(1) as f32;
-                    (luminance(e), e, None, None, rays + probe_rays, false)
+                    (luminance(e), e, None, None, rays + probe_rays, false, reach)
                 }
             };
             tick(1);
@@ -448,11 +478,13 @@ pub fn bake_points(
         maps: Vec::new(),
         visibility: Vec::new(),
         enclosed: Vec::new(),
+        reach: Vec::new(),
         rays: 0,
     };
-    for (e, irr, map, vis, rays, enclosed) in results {
+    for (e, irr, map, vis, rays, enclosed, reach) in results {
         b.energy.push(e);
         b.enclosed.push(enclosed);
+        b.reach.push(reach);
         b.irradiance.push(irr);
         if let Some(m) = map {
             b.maps.push(m);

@@ -256,6 +256,7 @@ impl WaveCache {
                     normal: s.normal.to_array(),
                     shading_normal: s.shading_normal.to_array(),
                     energy: baked.energy[k],
+                    reach: baked.reach[k],
                     payload,
                 });
             }
@@ -316,7 +317,7 @@ impl WaveCache {
     // payload is the key and the arrays, each as a u64 byte length and its plain bytes.
 
     /// Bump when the payload's layout or any array element's layout changes.
-    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 5 };
+    pub const FORMAT: CacheFormat = CacheFormat { magic: *b"WAVECACH", version: 6 };
 
     /// The payload of [`WaveCache::FORMAT`] as one buffer (tests; [`WaveCache::save`] writes
     /// the parts where they lie).
@@ -493,9 +494,12 @@ impl WaveCache {
             validate_octree(nodes, m.point_count).map_err(|e| format!("mesh {mi}: {e}"))?;
             let payloads = if m.class == Class::Glossy as u32 { self.radiance_trees.len() } else { self.irradiance.len() };
             for p in &self.points[m.first_point as usize..points_end as usize] {
-                let floats = p.position.iter().chain(&p.normal).chain(&p.shading_normal).chain([&p.energy]);
+                let floats = p.position.iter().chain(&p.normal).chain(&p.shading_normal).chain([&p.energy, &p.reach]);
                 if floats.into_iter().any(|v| !v.is_finite()) {
                     return bad("non-finite cache point".into());
+                }
+                if p.reach <= 0.0 {
+                    return bad(format!("cache point reach {} not positive", p.reach));
                 }
                 if m.class != Class::Mirror as u32 && p.payload as usize >= payloads {
                     return bad(format!("point payload {} out of range ({payloads})", p.payload));

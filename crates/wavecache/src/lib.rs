@@ -319,6 +319,22 @@ pub struct WavecacheParams {
     /// shadowed unlike it (0.2 where `pt` has 1.9), and with one point there is no
     /// disagreement to see. See docs/techniques/wavecache.md ("Disagreeing points").
     pub trace_lonely: bool,
+    /// `far_samples` (ours, session 34): a pixel traced for its cache points (`trace_far`,
+    /// `trace_disagree`, `trace_lonely`) takes at least this many traced samples, whatever the
+    /// spp. Each sample is one light sample per source and one BSDF bounce; under a studio map's
+    /// softboxes four of them left such pixels 3–8× off `pt` (`studio-objects` at 4 spp: MSE
+    /// against 4,096-spp `pt` 5.67e-3 → 4.17e-3 with 16). See docs/techniques/wavecache.md
+    /// ("Traced pixels' samples").
+    pub far_samples: u32,
+    /// `validity` (ours, session 34; 0.3, within Ward's usual 0.1–0.3; `inf` = off, `profile=paper`):
+    /// where `trace_lonely` applies, a diffuse pixel
+    /// none of whose points inside the kernel is valid for it by Ward's irradiance-caching error,
+    /// distance / the point's reach + √(1 − n·n) < `validity` (reach: the harmonic mean of the
+    /// point's probe rays' hit distances), is traced as a lonely one is. In a fold, the light
+    /// changes within a few millimetres: `studio-objects`' Suzanne had a pixel reading one
+    /// point 7 mm away (n·n 0.993) whose irradiance was 1.55 where the pixel's is 3.92. See
+    /// docs/techniques/wavecache.md ("Traced pixels' samples").
+    pub validity: f32,
     /// `blend` (ours; the paper reads one point, `profile=paper`: 1): a diffuse mesh's irradiance
     /// is the weighted mean of its `blend` best-scoring points within `blend_radius` × r_max
     /// (biweight kernel × the normals' cosine, inside the normal cutoff) instead of the best
@@ -441,6 +457,8 @@ impl Default for WavecacheParams {
             trace_disagree: f32::INFINITY,
             disagree_auto: true,
             trace_lonely: true,
+            far_samples: 16,
+            validity: 0.3,
             blend: 4,
             blend_glossy: 2,
             blend_radius: 2.0,
@@ -488,6 +506,7 @@ impl WavecacheParams {
             trace_disagree: f32::INFINITY,
             disagree_auto: false,
             trace_lonely: false,
+            validity: f32::INFINITY,
             blend: 1,
             blend_glossy: 1,
             enclosed_share: 1.0,
@@ -525,6 +544,8 @@ impl WavecacheParams {
             trace_disagree: d.trace_disagree,
             disagree_auto: d.disagree_auto,
             trace_lonely: d.trace_lonely,
+            far_samples: d.far_samples,
+            validity: d.validity,
             blend: d.blend,
             blend_glossy: d.blend_glossy,
             blend_radius: d.blend_radius,
@@ -595,6 +616,8 @@ impl WavecacheParams {
             },
             disagree_auto: params.text("trace_disagree", if base.disagree_auto { "auto" } else { "inf" }) == "auto",
             trace_lonely: params.bool("trace_lonely", base.trace_lonely)?,
+            far_samples: params.u32("far_samples", base.far_samples, 1, 4096)?,
+            validity: params.f32("validity", base.validity, 0.0, f32::INFINITY)?,
             blend: params.u32("blend", base.blend, 1, technique::MAX_BLEND as u32)?,
             blend_glossy: params.u32("blend_glossy", base.blend_glossy, 1, technique::MAX_BLEND as u32)?,
             blend_radius: params.f32("blend_radius", base.blend_radius, 0.0, 1e6)?,

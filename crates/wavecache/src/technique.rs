@@ -501,25 +501,30 @@ impl<'a> Runtime<'a> {
         // inside the normal cutoff.
         let radius = self.params.blend_radius * mc.r_max;
         let diffuse = self.classes.get(s.material as usize) == Some(&Class::Diffuse);
-        let mut total = 0.0;
+        let (mut total, mut valid) = (0.0, false);
         for (slot, &(_, i)) in reading.blended.iter_mut().zip(&best[..found]) {
             let p = &pts[i as usize];
-            let (d, c) = (s.position.distance(Vec3::from(p.position)) / radius, ns.dot(Vec3::from(p.shading_normal)));
+            let distance = s.position.distance(Vec3::from(p.position));
+            let (d, c) = (distance / radius, ns.dot(Vec3::from(p.shading_normal)));
             if d < 1.0 && c >= self.normal_cutoff {
                 let w = (1.0 - d * d).powi(2) * c;
                 *slot = (Some(p), w);
                 total += w;
+                // Ward's error: the point's light holds here (`validity`).
+                valid |= distance / p.reach + (1.0 - c).max(0.0).sqrt() < self.params.validity;
             }
         }
         if total > 0.0 {
             reading.blended.iter_mut().for_each(|b| b.1 /= total);
         } else {
             reading.blended[0] = (Some(point), 1.0);
-            // No point inside the kernel (`trace_lonely`): where shadows are hard, the one point
-            // beyond it can hold another place's light, and nothing disagrees to show it.
-            if diffuse && self.params.trace_lonely && self.trace_disagree.is_finite() {
-                reading.far = self.params.trace_far.is_finite();
-            }
+        }
+        // No point inside the kernel (`trace_lonely`): where shadows are hard, the one point
+        // beyond it can hold another place's light, and nothing disagrees to show it. Points
+        // inside it of which none is valid here by Ward's error (`validity`) are as lonely.
+        let lonely = total <= 0.0 || (!valid && self.params.validity.is_finite());
+        if diffuse && lonely && self.params.trace_lonely && self.trace_disagree.is_finite() {
+            reading.far = self.params.trace_far.is_finite();
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
         if diffuse && blend > 1 && self.trace_disagree.is_finite() {
@@ -975,8 +980,9 @@ impl Technique for Wavecache {
                 }
                 // The cache is read deterministically; only a traced lobe (sharp, or beyond the
                 // cache: `trace_far`, or glass) draws random numbers, so only it takes the
-                // pixel's `spp` samples.
-                // A texel far from its material's mean BRDF is traced, with more samples.
+                // pixel's `spp` samples; a pixel traced for its cache points at least
+                // `far_samples`, and a texel far from its material's mean BRDF at least
+                // `TEXEL_TRACE_SAMPLES`.
                 let off_mean = !glass && rt.off_mean(&p);
                 let sharp = glass || off_mean || rt.traced.get(p.material as usize).copied().unwrap_or(false);
                 let known = if sharp { None } else { Some(rt.point_for(&p, -gbuffer.view_dir[i])) };
@@ -986,6 +992,7 @@ impl Technique for Wavecache {
                 }
                 let samples = match (sharp || far, off_mean) {
                     (true, true) => spp.max(TEXEL_TRACE_SAMPLES),
+                    (true, false) if far => spp.max(self.params.far_samples),
                     (true, false) => spp,
                     (false, _) => 1,
                 };

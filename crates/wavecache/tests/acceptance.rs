@@ -666,7 +666,14 @@ fn check_14_octree() {
     let pts: Vec<CachePoint> = lp
         .iter()
         .zip(&ln)
-        .map(|(p, n)| CachePoint { position: p.to_array(), normal: n.to_array(), shading_normal: n.to_array(), energy: 1.0, payload: 0 })
+        .map(|(p, n)| CachePoint {
+            position: p.to_array(),
+            normal: n.to_array(),
+            shading_normal: n.to_array(),
+            energy: 1.0,
+            reach: glimpse_wavecache::bake::NO_REACH,
+            payload: 0,
+        })
         .collect();
     let (mut differ, mut far_preferred, mut wrong_side, mut best_was_wrong_side, mut top_differ) = (0, 0, 0, 0, 0);
     for radius in [f32::INFINITY, 0.15, 0.4] {
@@ -743,7 +750,7 @@ fn check_14b_capped_query_reads_the_nearest_points() {
         .iter()
         .map(|&i| {
             let (p, n) = (pos[i as usize].to_array(), nor[i as usize].to_array());
-            CachePoint { position: p, normal: n, shading_normal: n, energy: 1.0, payload: 0 }
+            CachePoint { position: p, normal: n, shading_normal: n, energy: 1.0, reach: glimpse_wavecache::bake::NO_REACH, payload: 0 }
         })
         .collect();
     let default_m = WavecacheParams::default().query_m;
@@ -1030,6 +1037,40 @@ fn far_cache_points_are_traced_not_read() {
     println!("2000 points: {dense_far:?} % traced for being far");
     assert_eq!(dense_far, Some(0.0));
     assert!(dense.pixels == dense_read.pixels, "the same image where no point is far");
+}
+
+/// `far_samples`: a pixel traced for its cache points takes at least that many samples whatever
+/// the spp, so at 1 spp the traced pixels come nearer `pt` with 16 than with 1 (the same
+/// pixels traced).
+#[test]
+fn traced_pixels_take_at_least_far_samples() {
+    let scene = glimpse_scene::load("glossy").unwrap();
+    let ctx = FrameContext::new(&scene, 0.0, 48, 36);
+    let g = ctx.gbuffer();
+    let reference = pt_reference(&ctx, &g, 256, 5);
+    let run = |far_samples: u32| {
+        let p = WavecacheParams {
+            diffuse_points: 24,
+            glossy_points: 24,
+            min_points: 1,
+            curvature_deg: 0.0,
+            trace_far: 1.0,
+            trace_disagree: f32::INFINITY,
+            disagree_auto: false,
+            far_samples,
+            ..small_params()
+        };
+        let mut t = Wavecache::with_params(&Settings { spp: 1, seed: 1 }, p);
+        t.prepare(&ctx).expect("prepare");
+        let mut img = ctx.image();
+        let stats = t.render(&ctx, &g, &mut img).expect("render");
+        (img, stats.metrics.iter().find(|(k, _)| k == "far_traced_pct").map_or(0.0, |(_, v)| *v))
+    };
+    let ((one, far1), (many, far16)) = (run(1), run(16));
+    let (e1, e16) = (mse(&one, &reference), mse(&many, &reference));
+    println!("1 spp, {far1:.1} % of pixels traced: far_samples=1 MSE {e1:.3e}, far_samples=16 MSE {e16:.3e}");
+    assert!(far1 > 5.0 && far1 == far16, "the same pixels traced: {far1} % vs {far16} %");
+    assert!(e16 < 0.8 * e1, "16 samples bring the traced pixels nearer pt: {e1} → {e16}");
 }
 
 /// A box on a 4 m floor under a strong sun (a sky map): the shadow edges `trace_disagree` is for.

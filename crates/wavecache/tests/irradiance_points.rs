@@ -161,3 +161,69 @@ fn blending_points_is_nearer_the_irradiance() {
     println!("floor irradiance MSE over {} pixels: best point {one:.3e}, 4 blended {four:.3e}", floor.len());
     assert!(four < 0.8 * one, "blending is nearer the irradiance");
 }
+
+/// A point's reach (`CachePoint::reach`, the harmonic mean of its probe rays' hit distances)
+/// is short at the block's foot, where half its rays meet the block, and long out on the open
+/// floor, where most escape to the sky; without probe rays (`enclosed_share=1`) it is unknown.
+#[test]
+fn points_know_their_reach() {
+    let scene = scene();
+    let ctx = FrameContext::new(&scene, 0.0, 16, 16);
+    let reaches = |share: f32| {
+        let mut t = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, params(share));
+        t.prepare(&ctx).unwrap();
+        let c = t.cache.as_ref().unwrap();
+        let floor = c.meshes[0];
+        let pts = &c.points[floor.first_point as usize..(floor.first_point + floor.point_count) as usize];
+        // Distance from the block's footprint (half-size 0.4: |x|, |z| ≤ 0.4) along the floor.
+        let gap = |p: &[f32; 3]| (p[0].abs() - 0.4).max(p[2].abs() - 0.4);
+        let median = |mut v: Vec<f32>| {
+            v.sort_by(f32::total_cmp);
+            v[v.len() / 2]
+        };
+        let near: Vec<f32> = pts.iter().filter(|p| (0.0..0.1).contains(&gap(&p.position))).map(|p| p.reach).collect();
+        let far: Vec<f32> = pts.iter().filter(|p| gap(&p.position) > 0.8).map(|p| p.reach).collect();
+        assert!(pts.iter().all(|p| p.reach.is_finite() && p.reach > 0.0));
+        (near.len(), median(near), far.len(), median(far))
+    };
+    let (n_near, near, n_far, far) = reaches(0.5);
+    println!("reach at the block's foot {near:.3} m (median of {n_near}), out on the floor {far:.3e} m (of {n_far})");
+    assert!(near < 0.5 && near * 10.0 < far, "near {near}, far {far}");
+    let (_, unknown, _, _) = reaches(1.0);
+    assert_eq!(unknown, glimpse_wavecache::bake::NO_REACH, "no probe, no reach");
+}
+
+/// `validity`: where lonely pixels are traced (`trace_disagree` applies), a pixel whose points
+/// inside the kernel all lie beyond Ward's error (distance / reach + √(1 − n·n) ≥ `validity`)
+/// is traced. The floor's points given a reach of 1 mm: every floor pixel with points in its
+/// kernel is traced; of unbounded reach, or with `validity=inf`: as before.
+#[test]
+fn points_beyond_their_reach_make_a_pixel_traced() {
+    let scene = scene();
+    let ctx = FrameContext::new(&scene, 0.0, 48, 40);
+    let g = ctx.gbuffer();
+    let p = WavecacheParams { trace_disagree: 3.0, disagree_auto: false, ..params(0.5) };
+    let mut t = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, p.clone());
+    t.prepare(&ctx).unwrap();
+    let floor: Vec<usize> = (0..g.len()).filter(|&i| g.is_hit(i) && g.instance[i] == 0).collect();
+    let traced = |reach: Option<f32>, validity: f32| {
+        let mut cache = t.cache.clone().unwrap();
+        let m = cache.meshes[0];
+        if let Some(r) = reach {
+            cache.points[m.first_point as usize..(m.first_point + m.point_count) as usize].iter_mut().for_each(|p| p.reach = r);
+        }
+        let p = WavecacheParams { validity, ..p.clone() };
+        let rt = Runtime::new(&cache, &p, &ctx.frame, &ctx.tracer);
+        floor.iter().filter(|&&i| rt.point_for(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]).far).count()
+    };
+    let measured = traced(None, 0.3);
+    let (short, unbounded, off) =
+        (traced(Some(1e-3), 0.3), traced(Some(glimpse_wavecache::bake::NO_REACH), 0.3), traced(Some(1e-3), f32::INFINITY));
+    println!(
+        "floor pixels traced of {}: reach as measured {measured}, 1 mm {short}, unbounded {unbounded}, validity=inf {off}",
+        floor.len()
+    );
+    assert!(short > floor.len() * 9 / 10, "points 1 mm long hold nowhere: {short}");
+    assert!(unbounded <= measured && measured < short);
+    assert_eq!(off, unbounded, "validity=inf reads the points whatever their reach");
+}
