@@ -327,7 +327,7 @@ pub struct WavecacheParams {
     /// ("Traced pixels' samples").
     pub far_samples: u32,
     /// `validity` (ours, session 34; 0.3, within Ward's usual 0.1–0.3; `inf` = off, `profile=paper`):
-    /// where `trace_lonely` applies, a diffuse pixel
+    /// where `trace_lonely` applies, a diffuse or glossy pixel
     /// none of whose points inside the kernel is valid for it by Ward's irradiance-caching error,
     /// distance / the point's reach + √(1 − n·n) < `validity` (reach: the harmonic mean of the
     /// point's probe rays' hit distances), is traced as a lonely one is. In a fold, the light

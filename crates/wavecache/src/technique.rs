@@ -519,11 +519,13 @@ impl<'a> Runtime<'a> {
         } else {
             reading.blended[0] = (Some(point), 1.0);
         }
-        // No point inside the kernel (`trace_lonely`): where shadows are hard, the one point
-        // beyond it can hold another place's light, and nothing disagrees to show it. Points
-        // inside it of which none is valid here by Ward's error (`validity`) are as lonely.
-        let lonely = total <= 0.0 || (!valid && self.params.validity.is_finite());
-        if diffuse && lonely && self.params.trace_lonely && self.trace_disagree.is_finite() {
+        // No point inside the kernel (`trace_lonely`, diffuse): where shadows are hard, the one
+        // point beyond it can hold another place's light, and nothing disagrees to show it.
+        // Points inside it of which none is valid here by Ward's error (`validity`, diffuse and
+        // glossy: a glossy point's map and environment visibility change as fast) are as lonely.
+        let lonely = diffuse && total <= 0.0;
+        let invalid = total > 0.0 && !valid && self.params.validity.is_finite();
+        if (lonely || invalid) && self.params.trace_lonely && self.trace_disagree.is_finite() {
             reading.far = self.params.trace_far.is_finite();
         }
         // Diffuse points that disagree (`trace_disagree`): their mean is no answer here.
