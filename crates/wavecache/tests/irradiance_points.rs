@@ -195,35 +195,50 @@ fn points_know_their_reach() {
 
 /// `validity`: where lonely pixels are traced (`trace_disagree` applies), a pixel whose points
 /// inside the kernel all lie beyond Ward's error (distance / reach + √(1 − n·n) ≥ `validity`)
-/// is traced. The floor's points given a reach of 1 mm: every floor pixel with points in its
-/// kernel is traced; of unbounded reach, or with `validity=inf`: as before.
+/// is traced, on a diffuse floor and on a glossy one. The floor's points given a reach of 1 mm:
+/// every floor pixel with points in its kernel is traced; of unbounded reach, or with
+/// `validity=inf`: as before.
 #[test]
 fn points_beyond_their_reach_make_a_pixel_traced() {
-    let scene = scene();
-    let ctx = FrameContext::new(&scene, 0.0, 48, 40);
-    let g = ctx.gbuffer();
-    let p = WavecacheParams { trace_disagree: 3.0, disagree_auto: false, ..params(0.5) };
-    let mut t = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, p.clone());
-    t.prepare(&ctx).unwrap();
-    let floor: Vec<usize> = (0..g.len()).filter(|&i| g.is_hit(i) && g.instance[i] == 0).collect();
-    let traced = |reach: Option<f32>, validity: f32| {
-        let mut cache = t.cache.clone().unwrap();
-        let m = cache.meshes[0];
-        if let Some(r) = reach {
-            cache.points[m.first_point as usize..(m.first_point + m.point_count) as usize].iter_mut().for_each(|p| p.reach = r);
-        }
-        let p = WavecacheParams { validity, ..p.clone() };
-        let rt = Runtime::new(&cache, &p, &ctx.frame, &ctx.tracer);
-        floor.iter().filter(|&&i| rt.point_for(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]).far).count()
-    };
-    let measured = traced(None, 0.3);
-    let (short, unbounded, off) =
-        (traced(Some(1e-3), 0.3), traced(Some(glimpse_wavecache::bake::NO_REACH), 0.3), traced(Some(1e-3), f32::INFINITY));
-    println!(
-        "floor pixels traced of {}: reach as measured {measured}, 1 mm {short}, unbounded {unbounded}, validity=inf {off}",
-        floor.len()
-    );
-    assert!(short > floor.len() * 9 / 10, "points 1 mm long hold nowhere: {short}");
-    assert!(unbounded <= measured && measured < short);
-    assert_eq!(off, unbounded, "validity=inf reads the points whatever their reach");
+    for roughness in [1.0, 0.3] {
+        let mut scene = scene();
+        scene.materials[0].roughness = roughness;
+        let ctx = FrameContext::new(&scene, 0.0, 48, 40);
+        let g = ctx.gbuffer();
+        let p = WavecacheParams {
+            trace_disagree: 3.0,
+            disagree_auto: false,
+            brdf_res: 16,
+            brdf_grid_u1: 8,
+            brdf_grid_u2: 32,
+            texel_samples: 1,
+            glossy_points: 400,
+            ..params(0.5)
+        };
+        let mut t = Wavecache::with_params(&Settings { spp: 1, seed: 5 }, p.clone());
+        t.prepare(&ctx).unwrap();
+        let floor: Vec<usize> = (0..g.len()).filter(|&i| g.is_hit(i) && g.instance[i] == 0).collect();
+        let class = t.cache.as_ref().unwrap().meshes[0].class;
+        let traced = |reach: Option<f32>, validity: f32| {
+            let mut cache = t.cache.clone().unwrap();
+            let m = cache.meshes[0];
+            if let Some(r) = reach {
+                cache.points[m.first_point as usize..(m.first_point + m.point_count) as usize].iter_mut().for_each(|p| p.reach = r);
+            }
+            let p = WavecacheParams { validity, ..p.clone() };
+            let rt = Runtime::new(&cache, &p, &ctx.frame, &ctx.tracer);
+            floor.iter().filter(|&&i| rt.point_for(&ShadePoint::at_pixel(&g, i), -g.view_dir[i]).far).count()
+        };
+        let measured = traced(None, 0.3);
+        let (short, unbounded, off) =
+            (traced(Some(1e-3), 0.3), traced(Some(glimpse_wavecache::bake::NO_REACH), 0.3), traced(Some(1e-3), f32::INFINITY));
+        println!(
+            "roughness {roughness} (class {class}): floor pixels traced of {}: reach as measured {measured}, 1 mm {short}, unbounded {unbounded}, validity=inf {off}",
+            floor.len()
+        );
+        assert_eq!(class, if roughness == 1.0 { 0 } else { 1 }, "a diffuse floor, then a glossy one");
+        assert!(short > floor.len() * 9 / 10, "points 1 mm long hold nowhere: {short}");
+        assert!(unbounded <= measured && measured < short);
+        assert_eq!(off, unbounded, "validity=inf reads the points whatever their reach");
+    }
 }
