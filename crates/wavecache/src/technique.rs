@@ -511,7 +511,7 @@ impl<'a> Runtime<'a> {
                 *slot = (Some(p), w);
                 total += w;
                 // Ward's error: the point's light holds here (`validity`).
-                valid |= distance / p.reach + (1.0 - c).max(0.0).sqrt() < self.params.validity;
+                valid = valid || distance / p.reach + (1.0 - c).max(0.0).sqrt() < self.params.validity;
             }
         }
         if total > 0.0 {
