@@ -326,12 +326,13 @@ pub fn env_irradiance(env: Option<&Environment>, vis: &dyn Visibility, s: &Shadi
     let Some(env) = env else {
         return (Vec3::ZERO, 0);
     };
-    let (d, l, pdf) = env.sample(u);
+    let es = env.sample_direction(u);
+    let (d, pdf) = (es.dir, es.pdf);
     let cos = s.cos(d);
     if pdf <= 0.0 || cos <= 0.0 {
         return (Vec3::ZERO, 0);
     }
-    if vis.occluded(&s.spawn(d), f32::INFINITY) { (Vec3::ZERO, 1) } else { (l * (cos / pdf), 1) }
+    if vis.occluded(&s.spawn(d), f32::INFINITY) { (Vec3::ZERO, 1) } else { (env.sample_radiance(&es) * (cos / pdf), 1) }
 }
 
 /// One area-light sample exactly as `soft-exact` draws it (`direct::sample_area_light` with the

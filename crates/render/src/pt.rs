@@ -221,7 +221,8 @@ impl PathIntegrator<'_> {
             // The environment (MIS).
             let u_env = rng.next_2d();
             if let Some(env) = env {
-                let (d, le, pdf) = env.sample(u_env);
+                let s = env.sample_direction(u_env);
+                let (d, pdf) = (s.dir, s.pdf);
                 let cos = bsdf.cos(d);
                 if pdf > 0.0 && cos > 0.0 {
                     let f = bsdf.eval(d) * coat.through;
@@ -229,7 +230,7 @@ impl PathIntegrator<'_> {
                         rays += 1;
                         if !self.tracer.occluded(&Ray::spawn(v.position, v.normal, v.error_scale, d), f32::INFINITY) {
                             let w = direct::power_heuristic(pdf, coat.base_probability() * bsdf.pdf(d));
-                            l += beta * f * le * (cos * w / pdf);
+                            l += beta * f * env.sample_radiance(&s) * (cos * w / pdf);
                         }
                     }
                 }
@@ -282,8 +283,9 @@ impl PathIntegrator<'_> {
             rays += 1;
             let Some(hit) = self.tracer.closest_hit(&ray, f32::INFINITY) else {
                 if let Some(env) = env {
-                    let w = mis_pdf.map_or(1.0, |p| direct::power_heuristic(p, env.pdf(wi)));
-                    l += beta * env.radiance(wi) * w;
+                    let (le, env_pdf) = env.radiance_and_pdf(wi);
+                    let w = mis_pdf.map_or(1.0, |p| direct::power_heuristic(p, env_pdf));
+                    l += beta * le * w;
                 }
                 break;
             };

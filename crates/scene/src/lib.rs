@@ -32,7 +32,7 @@ pub mod validate;
 pub use animation::{Deformation, Motion, Transform, TransformKey};
 pub use camera::{Camera, FovAxis};
 pub use cutouts::Cutouts;
-pub use environment::{BrightPart, Environment, SphereGrid};
+pub use environment::{BrightPart, EnvSample, Environment, SphereGrid};
 pub use error::SceneError;
 pub use film::{Film, Filter};
 pub use frame::{EmissiveTriangle, SceneFrame, WorldLight};

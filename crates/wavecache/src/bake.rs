@@ -105,7 +105,7 @@ impl<'a> Integrator<'a> {
     pub fn arrival(&self, ray: &Ray, rng: &mut Rng) -> Arrival {
         let env = self.frame.scene.environment.as_ref();
         let Some(hit) = self.tracer.closest_hit(ray, f32::INFINITY) else {
-            let (emitted, env_pdf) = env.map_or((Vec3::ZERO, 0.0), |e| (e.radiance(ray.dir), e.pdf(ray.dir)));
+            let (emitted, env_pdf) = env.map_or((Vec3::ZERO, 0.0), |e| e.radiance_and_pdf(ray.dir));
             return Arrival { emitted, env_pdf, escaped: true, rays: 1, ..Default::default() };
         };
         let sp = SurfacePoint::from_hit(self.frame, ray, &hit);
@@ -223,7 +223,7 @@ impl<'a> Integrator<'a> {
                     if let (Some(vis), Some(env)) = (vis.as_mut(), env) {
                         // What the environment would send along the ray unoccluded (an escaped
                         // ray's arrival holds it already), weighted as the light samples are.
-                        let (open, env_pdf) = if a.escaped { (a.emitted, a.env_pdf) } else { (env.radiance(dir), env.pdf(dir)) };
+                        let (open, env_pdf) = if a.escaped { (a.emitted, a.env_pdf) } else { env.radiance_and_pdf(dir) };
                         let light = luminance(open) as f64 * (1.0 / denominator(local, 0.0, env_pdf));
                         let v = &mut vis[(y * res + x) as usize];
                         v[1] += light;
@@ -268,10 +268,12 @@ impl<'a> Integrator<'a> {
         }
         if let Some(env) = env {
             for _ in 0..n_env {
-                let (d, le, pdf) = env.sample(rng.next_2d());
-                if pdf <= 0.0 {
+                let s = env.sample_direction(rng.next_2d());
+                // `splat` drops a direction below the surface: no radiance lookup for it.
+                if s.pdf <= 0.0 || s.dir.dot(point.normal) <= 0.0 {
                     continue;
                 }
+                let (d, le, pdf) = (s.dir, env.sample_radiance(&s), s.pdf);
                 // Each light's emission is its own integrand, sampled by the texels and by its own
                 // sampler: the environment's light is weighed against the texels alone (an area
                 // light in the way occludes it), as the area lights' is ([`Self::arrival`] gives

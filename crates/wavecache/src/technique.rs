@@ -853,12 +853,13 @@ impl<'a> Runtime<'a> {
         // The environment (MIS).
         let u_env = rng.next_2d();
         if let Some(env) = env {
-            let (d, le, pdf) = env.sample(u_env);
+            let es = env.sample_direction(u_env);
+            let (d, pdf) = (es.dir, es.pdf);
             let (cos, f) = (b.cos(d), b.eval(d));
             if pdf > 0.0 && cos > 0.0 && f.max_element() > 0.0 {
                 rays += 1;
                 if !self.vis.occluded(&Ray::spawn(s.position, s.normal, s.error_scale, d), f32::INFINITY) {
-                    l += f * le * (cos * direct::power_heuristic(pdf, b.pdf(d)) / pdf);
+                    l += f * env.sample_radiance(&es) * (cos * direct::power_heuristic(pdf, b.pdf(d)) / pdf);
                 }
             }
         }
@@ -874,7 +875,8 @@ impl<'a> Runtime<'a> {
         rays += 1;
         let Some(hit) = self.vis.closest_hit(&ray, f32::INFINITY) else {
             if let Some(env) = env {
-                l += weight * env.radiance(bs.wi) * direct::power_heuristic(bs.pdf, env.pdf(bs.wi));
+                let (le, env_pdf) = env.radiance_and_pdf(bs.wi);
+                l += weight * le * direct::power_heuristic(bs.pdf, env_pdf);
             }
             return (l, rays);
         };

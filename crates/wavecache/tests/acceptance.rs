@@ -1127,8 +1127,16 @@ fn disagreeing_points_are_traced_not_blended() {
 /// A traced disagreeing pixel is bounded by its points' light (`DISAGREE_BOUND`): beside the
 /// box in the sun stands a gold sphere, and a floor pixel traced at a shadow's edge whose
 /// sample reaches the sphere's reflection of the sun (a caustic path) is no brighter than
-/// twice its brightest point. Without the bound such samples made pixels many times `pt`
-/// (`scenes/extra/outdoor-sun`: one at 70× at 4 spp).
+/// twice its brightest point, whose light is at most the lit floor's. Without the bound such
+/// samples made pixels many times `pt` (`scenes/extra/outdoor-sun`: one at 70× at 4 spp).
+///
+/// Only disagreement traces pixels here (`trace_far`, `trace_lonely` and `validity` off): the
+/// pixels those rules trace carry no bound, and with them on, the floor's brightest pixel is a
+/// matter of which seed's 16 samples find the caustic. Seeds 1–5, this cache: the floor's
+/// brightest pixel 0.81–2.10× `pt`'s brightest floor pixel with the bound, 1.61–9.84× without
+/// (1.07 and 9.84 at seed 1). Its ratio to `pt` at the same pixel is 1.5–4.2× with the bound,
+/// 3.2–20× without: an umbra pixel's one caustic sample of 16, bounded, is still several
+/// times the umbra.
 #[test]
 fn traced_disagreeing_pixels_are_bounded_by_their_points() {
     let sphere = "[[sphere]]\nradius = 0.45\ntranslate = [-0.8, 0.45, 0.3]\n\
@@ -1137,24 +1145,35 @@ fn traced_disagreeing_pixels_are_bounded_by_their_points() {
     let ctx = FrameContext::new(&scene, 0.0, 64, 48);
     let g = ctx.gbuffer();
     let reference = pt_reference(&ctx, &g, 1024, 5);
-    let p = WavecacheParams { diffuse_points: 200, glossy_points: 200, trace_disagree: 3.0, disagree_auto: false, ..small_params() };
+    let p = WavecacheParams {
+        diffuse_points: 200,
+        glossy_points: 200,
+        trace_disagree: 3.0,
+        disagree_auto: false,
+        trace_lonely: false,
+        validity: f32::INFINITY,
+        trace_far: f32::INFINITY,
+        ..small_params()
+    };
     let mut t = Wavecache::with_params(&Settings { spp: 16, seed: 1 }, p);
     t.prepare(&ctx).expect("prepare");
     let mut img = ctx.image();
     let stats = t.render(&ctx, &g, &mut img).expect("render");
     let traced = stats.metrics.iter().find(|(k, _)| k == "far_traced_pct").map_or(0.0, |(_, v)| *v);
     let floor = scene.materials.iter().position(|m| m.base_color == glimpse_core::Vec3::splat(0.6)).unwrap() as u32;
-    let worst = (0..g.len())
-        .filter(|&i| g.is_hit(i) && g.material[i] == floor)
+    let floor_pixels = || (0..g.len()).filter(|&i| g.is_hit(i) && g.material[i] == floor);
+    let brightest = |im: &glimpse_core::Image| floor_pixels().map(|i| glimpse_core::luminance(im.pixels[i])).fold(0.0f32, f32::max);
+    let worst = floor_pixels()
         .map(|i| glimpse_core::luminance(img.pixels[i]) / glimpse_core::luminance(reference.pixels[i]).max(0.02))
         .fold(0.0f32, f32::max);
+    let (lit, lit_pt) = (brightest(&img), brightest(&reference));
     let (black, over) = faults(&img, &reference);
     println!(
-        "{traced:.1} % traced; the floor's brightest pixel {worst:.2}× pt (1,024 spp); {black} black, {over} over 2×; MSE {:.3e}",
+        "{traced:.1} % traced; the floor's brightest pixel {lit:.3} (pt's {lit_pt:.3}); the worst {worst:.2}× pt (1,024 spp); {black} black, {over} over 2×; MSE {:.3e}",
         mse(&img, &reference)
     );
     assert!(traced > 1.0, "the shadow's edges are traced");
-    assert!(worst < 4.0, "a floor pixel at {worst}× pt");
+    assert!(lit < 2.5 * lit_pt, "a floor pixel at {lit}, {:.2}× the lit floor", lit / lit_pt);
 }
 
 /// `trace_lonely` (on where `trace_disagree` applies): a diffuse pixel with no cache point of
