@@ -21,11 +21,13 @@
 //!   area every frame (this is the per-frame "jittered light position" of paper §6), with
 //!   intensity I(θ) = Σ L·A · cos θ, over a hemi-octahedral map of its front hemisphere. Averaged
 //!   over frames this converges to the area light's own illumination of the first bounce;
-//! - directional light: an orthographic map over the scene's bounding sphere (Φ = ρ · E⊥ · A⊥).
+//! - directional light: an orthographic map over the scene's bounding sphere (Φ = ρ · E⊥ · A⊥);
+//! - the environment map ([`environment_lights`], for `gi-roma`): a few directions drawn from
+//!   the map each frame, each a directional light.
 //!
 //! Point and spot maps get a per-frame sub-texel jitter of the texel ray instead.
 
-use glimpse_core::sampling::{octahedral_decode, octahedral_encode};
+use glimpse_core::sampling::{hammersley, octahedral_decode, octahedral_encode, rotate_sample};
 use glimpse_core::{Frame, Ray, Rng, Vec2, Vec3};
 use glimpse_scene::{LightKind, SceneFrame, frame::spot_falloff};
 use glimpse_trace::{ExactTracer, SurfacePoint};
@@ -108,16 +110,7 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
                 emission: Emission::Spot { intensity: l.intensity, inner: inner_angle, outer: outer_angle },
                 projection: Projection::Perspective { tan_half: outer_angle.min(85f32.to_radians()).tan() },
             },
-            LightKind::Directional => {
-                let radius = (frame.bounds.extent().length() * 0.5).max(1e-3) * 1.01;
-                RsmLight {
-                    position: frame.bounds.center() - l.direction * 2.0 * radius,
-                    error_scale: 0.0,
-                    axes: Frame::from_z(l.direction),
-                    emission: Emission::Directional(l.intensity),
-                    projection: Projection::Orthographic { half_extent: radius },
-                }
-            }
+            LightKind::Directional => directional(frame, l.direction, l.intensity),
         });
     }
     // Area lights: group the emissive triangles by instance.
@@ -146,6 +139,41 @@ pub fn rsm_lights(frame: &SceneFrame, rng: &mut Rng) -> Vec<RsmLight> {
         });
     }
     out
+}
+
+/// A directional light travelling along `direction` with irradiance `irradiance` on a surface
+/// facing it: an orthographic map over the scene's bounding sphere.
+fn directional(frame: &SceneFrame, direction: Vec3, irradiance: Vec3) -> RsmLight {
+    let radius = (frame.bounds.extent().length() * 0.5).max(1e-3) * 1.01;
+    RsmLight {
+        position: frame.bounds.center() - direction * 2.0 * radius,
+        error_scale: 0.0,
+        axes: Frame::from_z(direction),
+        emission: Emission::Directional(irradiance),
+        projection: Projection::Orthographic { half_extent: radius },
+    }
+}
+
+/// The environment map as `count` directional lights (ours: the RSM papers light scenes with
+/// spot and point lights only): directions drawn from the map's importance distribution at a
+/// randomly shifted Hammersley set (one per 1/`count` of the first dimension), each travelling
+/// towards the scene with irradiance `L(ω) / (count · p(ω))`. Summed over the directions a
+/// surface sees, their light is an unbiased one-sample-per-light estimate of the irradiance the
+/// map gives it, visibility included (each map sees only what its direction lights), so a
+/// technique that redraws them every frame converges to the map's light over its frames. Empty
+/// without a map.
+pub fn environment_lights(frame: &SceneFrame, count: u32, rng: &mut Rng) -> Vec<RsmLight> {
+    let Some(env) = frame.scene.environment.as_ref() else {
+        return Vec::new();
+    };
+    let shift = rng.next_2d();
+    (0..count)
+        .filter_map(|i| {
+            let s = env.sample_direction(rotate_sample(hammersley(i, count), shift));
+            let radiance = env.sample_radiance(&s);
+            (s.pdf > 0.0 && radiance.max_element() > 0.0).then(|| directional(frame, -s.dir, radiance / (count as f32 * s.pdf)))
+        })
+        .collect()
 }
 
 /// Bytes per RSM texel: position, normal, albedo, flux (12 B each), error scale, area and depth
@@ -269,17 +297,40 @@ impl Rsm {
     }
 
     /// Radiance reflected towards `viewer` by the directly lit surface at `p`, or zero when `p`
-    /// is farther from the light than the texel's surface by more than `bias` (in shadow), or
-    /// the viewer is behind the texel's surface.
+    /// is farther from the light than the texel's surface by more than `bias` plus the texel's
+    /// own depth range (in shadow), or the viewer is behind the texel's surface.
     pub fn lit_radiance(&self, p: Vec3, viewer: Vec3, bias: f32) -> Vec3 {
         let Some((i, depth)) = self.project(p) else {
             return Vec3::ZERO;
         };
-        let in_shadow = depth.partial_cmp(&(self.depth[i] + bias)) != Some(std::cmp::Ordering::Less);
+        let limit = self.depth[i] + bias + self.slope_depth(i);
+        let in_shadow = depth.partial_cmp(&limit) != Some(std::cmp::Ordering::Less);
         if in_shadow || self.normal[i].dot(viewer - self.position[i]) <= 0.0 {
             return Vec3::ZERO;
         }
         self.radiance(i)
+    }
+}
+
+impl Rsm {
+    /// How far from the light the texel's own surface reaches beyond its centre's depth: the
+    /// half-diagonal of its footprint across the light's rays times the tangent of the surface's
+    /// tilt from them (capped at 10, i.e. 84°). A surface point in the texel but off its centre
+    /// is up to this much deeper; without it a tilted surface shadows itself in stripes wherever
+    /// the texels are larger than `bias` (the standard slope-scaled depth bias of shadow maps).
+    /// The environment's orthographic maps over a whole scene have texels of decimetres, while
+    /// `gi-roma`'s bias is two ROMA cells of a centimetre or two under `focus=auto`: without this
+    /// a floor lit by the sky lost 30 % of its light in the bounce.
+    fn slope_depth(&self, i: usize) -> f32 {
+        let Some(light) = self.light.as_ref() else { return 0.0 };
+        let towards_light = match light.projection {
+            Projection::Orthographic { .. } => -light.axes.z,
+            _ => (light.position - self.position[i]).normalize_or_zero(),
+        };
+        let cos = self.normal[i].dot(towards_light).abs().clamp(0.1, 1.0);
+        // The texel's side across the rays: its surface area projected onto their plane.
+        let side = (self.area[i] * cos).sqrt();
+        side * std::f32::consts::FRAC_1_SQRT_2 * (1.0 - cos * cos).sqrt() / cos
     }
 }
 
@@ -448,5 +499,46 @@ mod tests {
         println!("total flux {total:.4} (expected ≈ {expected:.4}); texel radiance {:.5} vs ρE/π {:.5}", rsm.radiance(i).x, 0.5 * e / PI);
         assert!((total - expected).abs() < 0.02 * expected);
         assert!((rsm.radiance(i).x - 0.5 * e / PI).abs() < 0.02 * 0.5 * e / PI);
+    }
+
+    /// The environment's directional lights estimate the map's irradiance without bias: on an
+    /// open floor under a constant sky of radiance L, Σ_k ρ E_k cos θ_k / π (each map's texel
+    /// radiance) averages to ρ L, and directions from below light nothing (the floor hides them).
+    #[test]
+    fn environment_lights_average_to_the_maps_irradiance() {
+        let mut s = Scene::default();
+        let white = s.add_material(glimpse_scene::Material::diffuse("w", Vec3::splat(0.5)));
+        let q = 10.0;
+        let floor = glimpse_scene::Mesh {
+            name: "floor".into(),
+            positions: vec![Vec3::new(-q, 0.0, -q), Vec3::new(q, 0.0, -q), Vec3::new(q, 0.0, q), Vec3::new(-q, 0.0, q)],
+            indices: vec![[0, 2, 1], [0, 3, 2]],
+            material: white,
+            ..Default::default()
+        };
+        s.add_mesh(floor, glimpse_core::Mat4::IDENTITY);
+        let frame = s.at(0.0);
+        assert!(environment_lights(&frame, 4, &mut Rng::new(0, 0)).is_empty(), "no map, no lights");
+        s.environment = Some(glimpse_scene::Environment::constant(Vec3::splat(2.0)));
+        let frame = s.at(0.0);
+        let tracer = ExactTracer::build(&frame);
+        let mut rng = Rng::new(3, 0);
+        let (rounds, count) = (2000, 4);
+        let mut sum = 0.0f64;
+        for _ in 0..rounds {
+            let lights = environment_lights(&frame, count, &mut rng);
+            assert_eq!(lights.len(), count as usize);
+            for light in &lights {
+                let rsm = Rsm::build(&frame, &tracer, light, 32, Vec2::ZERO);
+                // The floor point the texel over its centre sees, seen from above (from below
+                // the map shows the floor's back: unlit). At 32² texels that point is on the
+                // floor unless the direction grazes it (cos θ < 0.04: 0.2 % of the light).
+                let p = rsm.position[rsm.project(Vec3::ZERO).unwrap().0];
+                sum += rsm.lit_radiance(p, p + Vec3::Y, 1e-3).x as f64;
+            }
+        }
+        let mean = sum / rounds as f64;
+        println!("floor radiance from {count} environment directions, mean of {rounds} draws: {mean:.4} (ρL = 1)");
+        assert!((mean - 1.0).abs() < 0.05, "{mean}"); // about 3.5 standard errors
     }
 }

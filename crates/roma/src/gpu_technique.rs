@@ -9,7 +9,6 @@
 //! the parameter.
 
 use super::{GPU_RESOLUTION, GpuQuery, GpuRoma};
-use crate::technique::MAX_RSM_LIGHTS;
 use crate::{Accumulator, DEFAULT_ACCUMULATE, RomaParams, Voxelization};
 use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec3};
@@ -261,8 +260,7 @@ impl Technique for GpuSoftRoma {
 pub struct GpuGiRoma {
     state: GpuRomaState,
     pub include_direct: bool,
-    /// RSM texels per side (paper §6: 512).
-    pub rsm_resolution: u32,
+    pub rsm: crate::technique::RsmSettings,
     rsms: Vec<Rsm>,
 }
 
@@ -270,18 +268,9 @@ impl GpuGiRoma {
     pub fn new(gpu: Arc<GpuContext>, scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
         glimpse_render::require(scene, "gi-roma", glimpse_render::Need::AnyLight)?;
         // The CPU `GiRoma::new`'s checks and reads, in its order.
-        let emitting =
-            scene.instances.iter().filter(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive()).count();
-        let maps = scene.lights.len() + emitting;
-        if maps > MAX_RSM_LIGHTS {
-            return Err(RenderError::Unsupported {
-                technique: "gi-roma".into(),
-                message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
-            });
-        }
+        let rsm = crate::technique::RsmSettings::read(scene, params)?;
         let state = GpuRomaState::new("gi-roma", gpu, settings, params, RomaParams::with_auto_n(), false)?;
-        let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
-        Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
+        Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm, rsms: Vec::new() })
     }
 }
 
@@ -302,7 +291,7 @@ impl Technique for GpuGiRoma {
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         // The CPU `GiRoma::prepare`: the same RSMs from the same random numbers.
         let mut stats = self.state.prepare(ctx)?;
-        self.rsms = crate::technique::build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, self.rsm_resolution, &mut stats)?;
+        self.rsms = crate::technique::build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, &self.rsm, &mut stats)?;
         Ok(stats)
     }
 

@@ -27,8 +27,10 @@
 //!   has its own direct lighting; ROMA only traces the bounce). The bounce's hit point is
 //!   projected into one RSM per light ([`glimpse_render::rsm`], 512² as in the paper) and lit
 //!   when it is no farther from the light than the RSM's surface plus 2 ROMA cells (the "perturb
-//!   the points to avoid shadow acne" of §6) and the shading point is on the lit side. Environment
-//!   light is not injected (the paper's RSMs are for spot and point lights).
+//!   the points to avoid shadow acne" of §6) and the shading point is on the lit side. The
+//!   environment map is injected as a few directional lights per frame, each with its own RSM
+//!   ([`RsmSettings::env_lights`], ours: the paper's RSMs are for spot and point lights, and a
+//!   surface lit by the map alone would reflect nothing).
 
 use crate::weighting::{self, SnappedSample};
 use crate::{Accumulator, DEFAULT_ACCUMULATE, Roma, RomaParams};
@@ -36,7 +38,7 @@ use glimpse_core::sampling::cosine_hemisphere;
 use glimpse_core::{Frame, Image, Rng, Vec2, Vec3};
 use glimpse_render::direct::{self, Shading};
 use glimpse_render::focus::FocusCache;
-use glimpse_render::rsm::{Rsm, rsm_lights};
+use glimpse_render::rsm::{Rsm, environment_lights, rsm_lights};
 use glimpse_render::{FrameContext, Params, RenderError, Settings, Stats, Technique, TechniqueInfo};
 use glimpse_scene::Scene;
 use glimpse_trace::GBuffer;
@@ -274,32 +276,27 @@ pub fn shadow_blocked(roma: &Roma, from: Vec3, to: Vec3, snap: bool, dda_steps: 
 /// Lights (punctual lights + emitting instances) `gi-roma` accepts: one 512² RSM each per frame.
 pub const MAX_RSM_LIGHTS: usize = 16;
 
-/// `gi-roma`.
-pub struct GiRoma {
-    state: RomaState,
-    pub include_direct: bool,
-    /// RSM texels per side (paper §6: 512).
-    pub rsm_resolution: u32,
-    rsms: Vec<Rsm>,
+/// `gi-roma`'s reflective shadow maps: their resolution, and the environment's share (ours).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RsmSettings {
+    /// RSM texels per side for the scene's lights (paper §6: 512; `rsm`).
+    pub resolution: u32,
+    /// Directions of the environment map injected per frame, each a directional light with its
+    /// own RSM ([`glimpse_render::rsm::environment_lights`]; `env_lights`, 0 with
+    /// `profile=paper`, whose RSMs hold spot and point lights only). Without them a surface lit
+    /// only by the map reflects nothing into the bounce, which `gi-exact` counts: on
+    /// `studio-objects` the teapot's underside, lit by the white floor, was black.
+    pub env_lights: u32,
+    /// Their texels per side (`env_rsm`): two per ROMA cell of the default 128³ grid, which
+    /// spans the same bounding sphere; the bounce's hit is known to a cell.
+    pub env_resolution: u32,
 }
 
-impl GiRoma {
-    pub fn info() -> TechniqueInfo {
-        TechniqueInfo {
-            id: "gi-roma",
-            family: "global illumination",
-            reference: Some("gi-exact"),
-            description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps (include_direct=true adds exact direct light; focus=auto as ao-roma)",
-            create: |scene: &Scene, settings, params| {
-                glimpse_render::require(scene, "gi-roma", glimpse_render::Need::AnyLight)?;
-                Ok(Box::new(GiRoma::new(scene, settings, params)?))
-            },
-        }
-    }
-
-    pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
-        // One RSM per punctual light and per emitting instance (the paper: one per spot/point
-        // light); a many-light scene would need thousands of 512² maps per frame.
+impl RsmSettings {
+    /// Reads `rsm`, `env_lights` and `env_rsm`, and refuses a scene with more than
+    /// [`MAX_RSM_LIGHTS`] lights (one map each per frame; a many-light scene would need
+    /// thousands of 512² maps).
+    pub fn read(scene: &Scene, params: &Params) -> Result<Self, RenderError> {
         let emitting =
             scene.instances.iter().filter(|i| scene.materials[scene.meshes[i.mesh as usize].material as usize].is_emissive()).count();
         let maps = scene.lights.len() + emitting;
@@ -309,31 +306,87 @@ impl GiRoma {
                 message: format!("{maps} lights would need {maps} reflective shadow maps per frame (at most {MAX_RSM_LIGHTS})"),
             });
         }
-        let state = RomaState::new(settings, params, RomaParams::with_auto_n(), false)?;
-        let rsm_resolution = params.u32("rsm", 512, 8, 4096)?;
-        Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm_resolution, rsms: Vec::new() })
+        let paper = params.choice("profile", "default", &["default", "paper"])? == "paper";
+        Ok(Self {
+            resolution: params.u32("rsm", 512, 8, 4096)?,
+            env_lights: params.u32("env_lights", if paper { 0 } else { DEFAULT_ENV_LIGHTS }, 0, 64)?,
+            env_resolution: params.u32("env_rsm", 256, 8, 4096)?,
+        })
     }
 }
 
-/// `gi-roma`'s reflective shadow maps for this frame (one per light that casts them), checked
-/// against the memory budget first; the CPU technique and its GPU port build the same maps from
-/// the same random numbers.
-pub(crate) fn build_rsms(ctx: &FrameContext, seed: u64, jitter: bool, res: u32, stats: &mut Stats) -> Result<Vec<Rsm>, RenderError> {
+/// [`RsmSettings::env_lights`]' default.
+pub const DEFAULT_ENV_LIGHTS: u32 = 4;
+
+/// `gi-roma`.
+pub struct GiRoma {
+    state: RomaState,
+    pub include_direct: bool,
+    pub rsm: RsmSettings,
+    rsms: Vec<Rsm>,
+}
+
+impl GiRoma {
+    pub fn info() -> TechniqueInfo {
+        TechniqueInfo {
+            id: "gi-roma",
+            family: "global illumination",
+            reference: Some("gi-exact"),
+            description: "ROMA one-bounce diffuse GI: snapped closest-hit bounce, hit lit from 512² reflective shadow maps of the lights and of 4 environment directions per frame (include_direct=true adds exact direct light; focus=auto as ao-roma)",
+            create: |scene: &Scene, settings, params| {
+                glimpse_render::require(scene, "gi-roma", glimpse_render::Need::AnyLight)?;
+                Ok(Box::new(GiRoma::new(scene, settings, params)?))
+            },
+        }
+    }
+
+    pub fn new(scene: &Scene, settings: &Settings, params: &Params) -> Result<Self, RenderError> {
+        let rsm = RsmSettings::read(scene, params)?;
+        let state = RomaState::new(settings, params, RomaParams::with_auto_n(), false)?;
+        Ok(Self { state, include_direct: params.bool("include_direct", true)?, rsm, rsms: Vec::new() })
+    }
+}
+
+/// `gi-roma`'s reflective shadow maps for this frame (one per light that casts them, then one
+/// per environment direction), checked against the memory budget first; the CPU technique and
+/// its GPU port build the same maps from the same random numbers.
+pub(crate) fn build_rsms(
+    ctx: &FrameContext,
+    seed: u64,
+    jitter: bool,
+    settings: &RsmSettings,
+    stats: &mut Stats,
+) -> Result<Vec<Rsm>, RenderError> {
+    let (res, env_res) = (settings.resolution as u64, settings.env_resolution as u64);
     let maps = glimpse_render::rsm::rsm_light_count(&ctx.frame);
-    let bytes = maps as u64 * (res as u64).pow(2) * glimpse_render::rsm::BYTES_PER_TEXEL;
-    glimpse_core::memory_budget::check(
-        format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", if maps == 1 { "" } else { "s" }),
-        bytes,
-    )?;
+    let env_maps = if ctx.frame.scene.environment.is_some() { settings.env_lights as usize } else { 0 };
+    let bytes = (maps as u64 * res * res + env_maps as u64 * env_res * env_res) * glimpse_render::rsm::BYTES_PER_TEXEL;
+    let plural = |n: usize| if n == 1 { "" } else { "s" };
+    let what = if env_maps == 0 {
+        format!("gi-roma: {maps} reflective shadow map{} of {res}² texels", plural(maps))
+    } else {
+        format!(
+            "gi-roma: {} reflective shadow maps ({maps} of {res}² texels, {env_maps} of {env_res}² for the environment)",
+            maps + env_maps
+        )
+    };
+    glimpse_core::memory_budget::check(what, bytes)?;
     let rsms: Vec<Rsm> = stats.time("rsm", || {
         let mut rng = Rng::new(seed, 0x2500_0000 + ctx.frame_index as u64);
-        rsm_lights(&ctx.frame, &mut rng)
+        let mut rsms: Vec<Rsm> = rsm_lights(&ctx.frame, &mut rng)
             .iter()
             .map(|light| {
                 let j = if jitter { rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
-                Rsm::build(&ctx.frame, &ctx.tracer, light, res, j)
+                Rsm::build(&ctx.frame, &ctx.tracer, light, settings.resolution, j)
             })
-            .collect()
+            .collect();
+        // The environment's directions from their own stream: the lights' maps stay as they were.
+        let mut env_rng = Rng::new(seed, 0x2600_0000 + ctx.frame_index as u64);
+        for light in environment_lights(&ctx.frame, settings.env_lights, &mut env_rng) {
+            let j = if jitter { env_rng.next_2d() - Vec2::splat(0.5) } else { Vec2::ZERO };
+            rsms.push(Rsm::build(&ctx.frame, &ctx.tracer, &light, settings.env_resolution, j));
+        }
+        rsms
     });
     stats.memory_bytes += rsms.iter().map(Rsm::memory_bytes).sum::<usize>();
     Ok(rsms)
@@ -346,7 +399,7 @@ impl Technique for GiRoma {
 
     fn prepare(&mut self, ctx: &FrameContext) -> Result<Stats, RenderError> {
         let mut stats = self.state.prepare(ctx)?;
-        self.rsms = build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, self.rsm_resolution, &mut stats)?;
+        self.rsms = build_rsms(ctx, self.state.settings.seed, self.state.params.jitter, &self.rsm, &mut stats)?;
         Ok(stats)
     }
 
