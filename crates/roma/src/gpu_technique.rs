@@ -304,7 +304,7 @@ impl Technique for GpuGiRoma {
         let f = roma.frame().map_err(|e| gpu_error("gi-roma", e))?;
         let (cell, candidates) = (f.grid.cell_size_world, f.candidates.clone());
         let offset = cell * origin_offset_cells;
-        let bias = 2.0 * cell;
+        let bias = self.rsm.bias_cells * cell;
         let (frame, rsms) = (&ctx.frame, &self.rsms);
         let env = frame.scene.environment.as_ref();
         // The CPU technique's direct light and bounce directions, in its order (`GiRoma::render`).
