@@ -472,11 +472,10 @@ mod tests {
 
     /// A point light above an infinite-ish white floor: the RSM's total flux is ρ times the
     /// power the floor receives, and every texel's radiance is ρ E / π.
-    #[test]
-    fn point_light_over_a_floor_reflects_rho_e_over_pi() {
+    /// A white (ρ = 0.5) square floor of half-size `q` at y = 0, facing up, and nothing else.
+    fn white_floor(q: f32) -> Scene {
         let mut s = Scene::default();
         let white = s.add_material(glimpse_scene::Material::diffuse("w", Vec3::splat(0.5)));
-        let q = 50.0;
         let floor = glimpse_scene::Mesh {
             name: "floor".into(),
             positions: vec![Vec3::new(-q, 0.0, -q), Vec3::new(q, 0.0, -q), Vec3::new(q, 0.0, q), Vec3::new(-q, 0.0, q)],
@@ -485,6 +484,13 @@ mod tests {
             ..Default::default()
         };
         s.add_mesh(floor, glimpse_core::Mat4::IDENTITY);
+        s
+    }
+
+    #[test]
+    fn point_light_over_a_floor_reflects_rho_e_over_pi() {
+        let q = 50.0;
+        let mut s = white_floor(q);
         s.lights.push(Light::point(Vec3::new(0.0, 1.0, 0.0), Vec3::splat(10.0)));
         let frame = s.at(0.0);
         let tracer = ExactTracer::build(&frame);
@@ -506,17 +512,7 @@ mod tests {
     /// radiance) averages to ρ L, and directions from below light nothing (the floor hides them).
     #[test]
     fn environment_lights_average_to_the_maps_irradiance() {
-        let mut s = Scene::default();
-        let white = s.add_material(glimpse_scene::Material::diffuse("w", Vec3::splat(0.5)));
-        let q = 10.0;
-        let floor = glimpse_scene::Mesh {
-            name: "floor".into(),
-            positions: vec![Vec3::new(-q, 0.0, -q), Vec3::new(q, 0.0, -q), Vec3::new(q, 0.0, q), Vec3::new(-q, 0.0, q)],
-            indices: vec![[0, 2, 1], [0, 3, 2]],
-            material: white,
-            ..Default::default()
-        };
-        s.add_mesh(floor, glimpse_core::Mat4::IDENTITY);
+        let mut s = white_floor(10.0);
         let frame = s.at(0.0);
         assert!(environment_lights(&frame, 4, &mut Rng::new(0, 0)).is_empty(), "no map, no lights");
         s.environment = Some(glimpse_scene::Environment::constant(Vec3::splat(2.0)));
